@@ -1,0 +1,18 @@
+// Errors of PanoScan: every failure a user can cause is an Error whose message names the
+// file and the field involved. They are caught once, in main, and printed on one line.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace panoscan {
+
+class Error : public std::runtime_error {
+ public:
+  explicit Error(const std::string& message) : std::runtime_error(message) {}
+};
+
+// "<file>: <field>: <what>"; either part may be empty and is then left out.
+Error make_error(const std::string& file, const std::string& field, const std::string& what);
+
+}  // namespace panoscan

@@ -1,0 +1,42 @@
+// Rigid transforms and small geometric helpers.
+//
+// Naming: a transform called `b_from_a` maps points in frame a to frame b
+// (point_in_b = b_from_a * point_in_a). Camera frames follow OpenCV/TUM: x right, y down,
+// z forward. The scene ("world") frame has z up.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace panoscan {
+
+using Rigid3d = Eigen::Isometry3d;
+
+Rigid3d make_rigid(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation);
+Rigid3d make_rigid(const Eigen::Quaterniond& rotation, const Eigen::Vector3d& translation);
+
+// Rotation about a unit axis by angle (right-handed), as a rigid transform with no translation.
+Rigid3d rotation_about(const Eigen::Vector3d& axis, double angle_rad);
+
+// SO(3) exponential and logarithm (axis-angle vector <-> rotation matrix).
+Eigen::Matrix3d so3_exp(const Eigen::Vector3d& rotation_vector);
+Eigen::Vector3d so3_log(const Eigen::Matrix3d& rotation);
+
+// Angle of a rotation matrix in radians, in [0, pi].
+double rotation_angle(const Eigen::Matrix3d& rotation);
+
+// Wraps an angle to [0, 2*pi).
+double wrap_two_pi(double angle_rad);
+// Wraps an angle to (-pi, pi].
+double wrap_pi(double angle_rad);
+
+inline double deg2rad(double deg) { return deg * 0.017453292519943295; }
+inline double rad2deg(double rad) { return rad * 57.29577951308232; }
+
+// Exact Euclidean distance from a point to a triangle (closest point on the triangle,
+// including its edges and vertices). Degenerate triangles fall back to the closest segment.
+double point_triangle_distance(const Eigen::Vector3d& point, const Eigen::Vector3d& a,
+                               const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                               Eigen::Vector3d* closest = nullptr);
+
+}  // namespace panoscan

@@ -1,0 +1,28 @@
+// PNG and EXR image files. Every reader validates and throws Error naming the file on a missing,
+// unreadable or wrongly-shaped image. Every writer is atomic (temp file + rename).
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "panoscan/core/image.h"
+
+namespace panoscan {
+
+// 8-bit PNG with 1 or 3 channels (RGB order in memory). compression: 0 (fast) .. 9 (small).
+void write_png(const std::filesystem::path& path, const ImageU8& image, int compression = 1);
+// 16-bit single-channel PNG (depth).
+void write_png16(const std::filesystem::path& path, const ImageU16& image, int compression = 1);
+
+// Reads an 8-bit PNG/JPEG as RGB (3 channels). Throws if the file is missing or not an image.
+ImageU8 read_rgb(const std::filesystem::path& path);
+// Reads a 16-bit single-channel PNG. Throws if it is not 16-bit single-channel.
+ImageU16 read_png16(const std::filesystem::path& path);
+
+// Float EXR with named channels (e.g. {"R","G","B"} or {"Z"}); image.channels == names.size().
+void write_exr(const std::filesystem::path& path, const ImageF32& image, const std::vector<std::string>& channel_names);
+// Reads the named channels of a float EXR (throws naming the file and channel if one is missing).
+ImageF32 read_exr(const std::filesystem::path& path, const std::vector<std::string>& channel_names);
+
+}  // namespace panoscan

@@ -1,0 +1,109 @@
+// The scan format (SPEC §3.6): one directory per scanning position.
+//
+//   rig.json                   format name + version, sensors (intrinsics, image size, depth scale,
+//                              calibrated extrinsics ref_from_cam), reference sensor index
+//   camK/rgb/<ts>.png          8-bit colour, registered to depth
+//   camK/depth/<ts>.png        16-bit depth, z along the optical axis, depth_scale units per metre (5000)
+//   camK/rgb.txt, depth.txt    TUM listings "timestamp filename" (filename relative to camK/)
+//   groundtruth/               only for eval and tests (written by the simulator)
+//     camK.txt                 TUM trajectory, world_from_camera in the scene frame
+//     rig_truth.json           true extrinsics, axis pose, noise settings, seed
+//     mesh.ply                 ground-truth mesh in the scene frame
+//     depth_clean/camK/<ts>.png  noiseless depth (optional)
+//
+// The reader validates everything a reconstruction relies on and throws Error naming the file
+// and the field; the writer builds the directory atomically.
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "panoscan/core/camera.h"
+#include "panoscan/core/geometry.h"
+#include "panoscan/core/image.h"
+#include "panoscan/core/mesh.h"
+#include "panoscan/core/trajectory.h"
+
+namespace panoscan {
+
+constexpr const char* kScanFormatName = "panoscan-scan";
+constexpr int kScanFormatVersion = 1;
+
+struct SensorInfo {
+  std::string name;  // "cam0", also the sub-directory name
+  PinholeIntrinsics intrinsics;
+  double depth_scale = 5000.0;  // PNG units per metre
+  double nominal_fps = 30.0;
+  // Calibrated extrinsics: pose of this camera in the reference camera's frame (T_c in the
+  // paper). Identity for the reference camera. In simulated scans these carry the configured
+  // calibration error; the truth is in groundtruth/rig_truth.json.
+  Rigid3d ref_from_cam = Rigid3d::Identity();
+};
+
+struct RigInfo {
+  std::vector<SensorInfo> sensors;
+  int reference_sensor = 0;
+  std::string description;  // free text (e.g. "simulated: office SO-1")
+};
+
+struct FrameEntry {
+  double timestamp = 0.0;
+  std::string rgb_file;    // relative to the camera directory, e.g. "rgb/1.000000.png"
+  std::string depth_file;  // relative to the camera directory
+};
+
+struct ScanIndex {
+  std::filesystem::path root;
+  RigInfo rig;
+  std::vector<std::vector<FrameEntry>> frames;  // per sensor, in timestamp order
+};
+
+struct RgbdFrame {
+  double timestamp = 0.0;
+  ImageU8 rgb;      // 3 channels
+  ImageF32 depth;   // metres, 0 = invalid
+};
+
+// Reads and validates rig.json and the listings (entries present in both listings with equal
+// timestamps, strictly increasing, files exist). Does not read the images.
+ScanIndex read_scan_index(const std::filesystem::path& scan_dir);
+// Reads one frame and validates its image sizes against the rig.
+RgbdFrame load_frame(const ScanIndex& scan, int sensor, std::size_t frame_index);
+
+// rig.json <-> RigInfo (exposed for tests and tools).
+std::string rig_to_json(const RigInfo& rig);
+RigInfo rig_from_json(const std::string& text, const std::string& origin);
+
+// Ground-truth files written beside a scan.
+std::filesystem::path groundtruth_dir(const std::filesystem::path& scan_dir);
+std::vector<StampedPose> read_groundtruth_trajectory(const std::filesystem::path& scan_dir, int sensor);
+
+// Writes a scan directory atomically: everything goes into a temporary sibling directory,
+// and commit() writes listings and rig.json and renames it into place. Frames of different
+// sensors may be written concurrently; frames of one sensor must arrive in timestamp order.
+class ScanWriter {
+ public:
+  ScanWriter(const std::filesystem::path& scan_dir, const RigInfo& rig, bool overwrite, int png_compression = 1);
+  ~ScanWriter();
+
+  void write_frame(int sensor, double timestamp, const ImageU8& rgb, const ImageU16& depth);
+  void write_clean_depth(int sensor, double timestamp, const ImageU16& depth);
+  void write_groundtruth_trajectory(int sensor, const std::vector<StampedPose>& poses);
+  void write_groundtruth_file(const std::string& name, const std::string& bytes);  // e.g. rig_truth.json
+  void write_groundtruth_mesh(const TriangleMesh& mesh);
+  // Path inside the temporary directory (for writers that produce files themselves).
+  std::filesystem::path temp_path(const std::string& relative) const;
+  void commit();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Metres -> depth PNG units with rounding; 0 stays 0; values beyond the 16-bit range become 0.
+ImageU16 depth_to_png_units(const ImageF32& depth_m, double depth_scale);
+ImageF32 depth_from_png_units(const ImageU16& depth, double depth_scale);
+
+}  // namespace panoscan

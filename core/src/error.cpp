@@ -1,0 +1,13 @@
+#include "panoscan/core/error.h"
+
+namespace panoscan {
+
+Error make_error(const std::string& file, const std::string& field, const std::string& what) {
+  std::string message;
+  if (!file.empty()) message += file + ": ";
+  if (!field.empty()) message += field + ": ";
+  message += what;
+  return Error(message);
+}
+
+}  // namespace panoscan

@@ -1,0 +1,115 @@
+#include "panoscan/core/geometry.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace panoscan {
+
+Rigid3d make_rigid(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation) {
+  Rigid3d result = Rigid3d::Identity();
+  result.linear() = rotation;
+  result.translation() = translation;
+  return result;
+}
+
+Rigid3d make_rigid(const Eigen::Quaterniond& rotation, const Eigen::Vector3d& translation) {
+  return make_rigid(rotation.normalized().toRotationMatrix(), translation);
+}
+
+Rigid3d rotation_about(const Eigen::Vector3d& axis, double angle_rad) {
+  return make_rigid(Eigen::AngleAxisd(angle_rad, axis.normalized()).toRotationMatrix(), Eigen::Vector3d::Zero());
+}
+
+Eigen::Matrix3d so3_exp(const Eigen::Vector3d& rotation_vector) {
+  const double angle = rotation_vector.norm();
+  if (angle < 1e-12) {
+    // First order: I + [w]x, re-orthonormalised through the quaternion.
+    Eigen::Quaterniond q(1.0, 0.5 * rotation_vector.x(), 0.5 * rotation_vector.y(), 0.5 * rotation_vector.z());
+    return q.normalized().toRotationMatrix();
+  }
+  return Eigen::AngleAxisd(angle, rotation_vector / angle).toRotationMatrix();
+}
+
+Eigen::Vector3d so3_log(const Eigen::Matrix3d& rotation) {
+  // Through the quaternion: numerically stable near 0 and near pi.
+  Eigen::Quaterniond q(rotation);
+  q.normalize();
+  if (q.w() < 0) q.coeffs() *= -1.0;
+  const Eigen::Vector3d v = q.vec();
+  const double sin_half = v.norm();
+  if (sin_half < 1e-12) return 2.0 * v;
+  const double angle = 2.0 * std::atan2(sin_half, q.w());
+  return v * (angle / sin_half);
+}
+
+double rotation_angle(const Eigen::Matrix3d& rotation) { return so3_log(rotation).norm(); }
+
+double wrap_two_pi(double angle_rad) {
+  constexpr double kTwoPi = 2.0 * M_PI;
+  double wrapped = std::fmod(angle_rad, kTwoPi);
+  if (wrapped < 0) wrapped += kTwoPi;
+  if (wrapped >= kTwoPi) wrapped = 0.0;
+  return wrapped;
+}
+
+double wrap_pi(double angle_rad) {
+  double wrapped = wrap_two_pi(angle_rad);
+  if (wrapped > M_PI) wrapped -= 2.0 * M_PI;
+  return wrapped;
+}
+
+namespace {
+
+Eigen::Vector3d closest_on_segment(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  const Eigen::Vector3d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  if (len2 <= 0.0) return a;
+  const double t = std::clamp((p - a).dot(ab) / len2, 0.0, 1.0);
+  return a + t * ab;
+}
+
+}  // namespace
+
+double point_triangle_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                               const Eigen::Vector3d& c, Eigen::Vector3d* closest) {
+  // Region classification by barycentric tests (Ericson, Real-Time Collision Detection, 5.1.5).
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  Eigen::Vector3d result;
+  if (ab.cross(ac).squaredNorm() <= 1e-30) {
+    // Degenerate: the closest of the three edges.
+    const Eigen::Vector3d candidates[3] = {closest_on_segment(p, a, b), closest_on_segment(p, b, c),
+                                           closest_on_segment(p, c, a)};
+    result = candidates[0];
+    for (const auto& q : candidates)
+      if ((q - p).squaredNorm() < (result - p).squaredNorm()) result = q;
+  } else {
+    const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+    const Eigen::Vector3d bp = p - b;
+    const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+    const Eigen::Vector3d cp = p - c;
+    const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+    const double vc = d1 * d4 - d3 * d2;
+    const double vb = d5 * d2 - d1 * d6;
+    const double va = d3 * d6 - d5 * d4;
+    if (d1 <= 0 && d2 <= 0) {
+      result = a;
+    } else if (d3 >= 0 && d4 <= d3) {
+      result = b;
+    } else if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+      result = a + (d1 / (d1 - d3)) * ab;
+    } else if (d6 >= 0 && d5 <= d6) {
+      result = c;
+    } else if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+      result = a + (d2 / (d2 - d6)) * ac;
+    } else if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+      result = b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
+    } else {
+      const double denom = 1.0 / (va + vb + vc);
+      result = a + ab * (vb * denom) + ac * (vc * denom);
+    }
+  }
+  if (closest) *closest = result;
+  return (p - result).norm();
+}
+
+}  // namespace panoscan

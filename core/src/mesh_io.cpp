@@ -1,0 +1,406 @@
+// PLY meshes (Turk's polygon file format): a header of elements with typed properties, then the
+// data in ASCII or binary. We write binary little-endian with float x y z and uchar/int faces, and
+// read ASCII and binary (either byte order), skipping every element and property we do not need.
+#include "panoscan/core/mesh_io.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "panoscan/core/atomic_output.h"
+#include "panoscan/core/error.h"
+
+namespace fs = std::filesystem;
+
+namespace panoscan {
+
+namespace {
+
+bool host_is_little_endian() {
+  const std::uint16_t one = 1;
+  std::uint8_t first;
+  std::memcpy(&first, &one, 1);
+  return first == 1;
+}
+
+template <typename T>
+void append_little_endian(std::string& out, T value) {
+  char bytes[sizeof(T)];
+  std::memcpy(bytes, &value, sizeof(T));
+  if (!host_is_little_endian())
+    for (std::size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(bytes[i], bytes[sizeof(T) - 1 - i]);
+  out.append(bytes, sizeof(T));
+}
+
+// ------------------------------------------------------------------------------------------------
+// Header model.
+
+enum class PlyFormat { kAscii, kBinaryLittleEndian, kBinaryBigEndian };
+enum class PlyType { kInt8, kUInt8, kInt16, kUInt16, kInt32, kUInt32, kFloat32, kFloat64 };
+
+struct PlyProperty {
+  std::string name;
+  PlyType type = PlyType::kFloat32;  // item type for lists
+  bool is_list = false;
+  PlyType count_type = PlyType::kUInt8;
+};
+
+struct PlyElement {
+  std::string name;
+  std::uint64_t count = 0;
+  std::vector<PlyProperty> properties;
+};
+
+bool parse_type(const std::string& word, PlyType* type) {
+  static const struct {
+    const char* name;
+    PlyType type;
+  } kTypes[] = {{"char", PlyType::kInt8},     {"int8", PlyType::kInt8},       {"uchar", PlyType::kUInt8},
+                {"uint8", PlyType::kUInt8},   {"short", PlyType::kInt16},     {"int16", PlyType::kInt16},
+                {"ushort", PlyType::kUInt16}, {"uint16", PlyType::kUInt16},   {"int", PlyType::kInt32},
+                {"int32", PlyType::kInt32},   {"uint", PlyType::kUInt32},     {"uint32", PlyType::kUInt32},
+                {"float", PlyType::kFloat32}, {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
+                {"float64", PlyType::kFloat64}};
+  for (const auto& entry : kTypes)
+    if (word == entry.name) {
+      *type = entry.type;
+      return true;
+    }
+  return false;
+}
+
+std::size_t type_size(PlyType type) {
+  switch (type) {
+    case PlyType::kInt8:
+    case PlyType::kUInt8: return 1;
+    case PlyType::kInt16:
+    case PlyType::kUInt16: return 2;
+    case PlyType::kInt32:
+    case PlyType::kUInt32:
+    case PlyType::kFloat32: return 4;
+    case PlyType::kFloat64: return 8;
+  }
+  return 0;
+}
+
+bool is_integer_type(PlyType type) { return type != PlyType::kFloat32 && type != PlyType::kFloat64; }
+
+// ------------------------------------------------------------------------------------------------
+// Data readers: one value at a time, as double (exact for every PLY type).
+
+class DataReader {
+ public:
+  virtual ~DataReader() = default;
+  // Reads one value of `type`; throws (naming `what`) if the data ends early or is malformed.
+  virtual double read(PlyType type, const std::string& what) = 0;
+  // Skips one value (faster than read for binary; same for ASCII).
+  virtual void skip(PlyType type, const std::string& what) { read(type, what); }
+  // Bytes (binary) or tokens (ASCII) left, to bound allocations on absurd counts.
+  virtual std::uint64_t remaining() const = 0;
+};
+
+class BinaryReader : public DataReader {
+ public:
+  BinaryReader(const std::string& file, const std::string& data, std::size_t offset, bool little_endian)
+      : file_(file), data_(data), offset_(offset), swap_(little_endian != host_is_little_endian()) {}
+
+  double read(PlyType type, const std::string& what) override {
+    const std::size_t size = type_size(type);
+    if (offset_ + size > data_.size()) throw make_error(file_, what, "truncated data (the file ends early)");
+    char bytes[8];
+    std::memcpy(bytes, data_.data() + offset_, size);
+    offset_ += size;
+    if (swap_)
+      for (std::size_t i = 0; i < size / 2; ++i) std::swap(bytes[i], bytes[size - 1 - i]);
+    switch (type) {
+      case PlyType::kInt8: { std::int8_t v; std::memcpy(&v, bytes, 1); return v; }
+      case PlyType::kUInt8: { std::uint8_t v; std::memcpy(&v, bytes, 1); return v; }
+      case PlyType::kInt16: { std::int16_t v; std::memcpy(&v, bytes, 2); return v; }
+      case PlyType::kUInt16: { std::uint16_t v; std::memcpy(&v, bytes, 2); return v; }
+      case PlyType::kInt32: { std::int32_t v; std::memcpy(&v, bytes, 4); return v; }
+      case PlyType::kUInt32: { std::uint32_t v; std::memcpy(&v, bytes, 4); return v; }
+      case PlyType::kFloat32: { float v; std::memcpy(&v, bytes, 4); return v; }
+      case PlyType::kFloat64: { double v; std::memcpy(&v, bytes, 8); return v; }
+    }
+    return 0.0;
+  }
+
+  void skip(PlyType type, const std::string& what) override {
+    const std::size_t size = type_size(type);
+    if (offset_ + size > data_.size()) throw make_error(file_, what, "truncated data (the file ends early)");
+    offset_ += size;
+  }
+
+  std::uint64_t remaining() const override { return data_.size() - offset_; }
+
+ private:
+  const std::string& file_;
+  const std::string& data_;
+  std::size_t offset_;
+  bool swap_;
+};
+
+class AsciiReader : public DataReader {
+ public:
+  AsciiReader(const std::string& file, const std::string& data, std::size_t offset)
+      : file_(file), data_(data), offset_(offset) {}
+
+  double read(PlyType type, const std::string& what) override {
+    while (offset_ < data_.size() && std::isspace(static_cast<unsigned char>(data_[offset_]))) ++offset_;
+    if (offset_ >= data_.size()) throw make_error(file_, what, "truncated data (the file ends early)");
+    std::size_t end = offset_;
+    while (end < data_.size() && !std::isspace(static_cast<unsigned char>(data_[end]))) ++end;
+    const std::string token = data_.substr(offset_, end - offset_);
+    offset_ = end;
+    char* parse_end = nullptr;
+    const double value = std::strtod(token.c_str(), &parse_end);
+    if (parse_end == token.c_str() || *parse_end != '\0')
+      throw make_error(file_, what, "'" + token + "' is not a number");
+    if (is_integer_type(type) && std::isfinite(value) && value != std::floor(value))
+      throw make_error(file_, what, "'" + token + "' is not an integer");
+    return value;
+  }
+
+  std::uint64_t remaining() const override { return (data_.size() - offset_) / 2 + 1; }
+
+ private:
+  const std::string& file_;
+  const std::string& data_;
+  std::size_t offset_;
+};
+
+std::string read_whole_file(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw make_error(path.string(), "", "PLY file not found");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw make_error(path.string(), "", "cannot open the PLY file");
+  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw make_error(path.string(), "", "error while reading the PLY file");
+  return data;
+}
+
+}  // namespace
+
+void write_ply_mesh(const fs::path& path, const TriangleMesh& mesh) {
+  const std::string file = path.string();
+  const std::size_t num_vertices = mesh.vertices.size();
+  if (num_vertices > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+    throw make_error(file, "vertices", "too many vertices for int32 face indices");
+  for (std::size_t i = 0; i < num_vertices; ++i)
+    if (!mesh.vertices[i].allFinite()) throw make_error(file, "vertex " + std::to_string(i), "non-finite coordinate");
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const int index = mesh.triangles[t][k];
+      if (index < 0 || static_cast<std::size_t>(index) >= num_vertices)
+        throw make_error(file, "face " + std::to_string(t), "vertex index " + std::to_string(index) + " out of range");
+    }
+
+  std::string bytes = "ply\nformat binary_little_endian 1.0\ncomment PanoScan mesh (metres)\n";
+  bytes += "element vertex " + std::to_string(num_vertices) + "\n";
+  bytes += "property float x\nproperty float y\nproperty float z\n";
+  bytes += "element face " + std::to_string(mesh.triangles.size()) + "\n";
+  bytes += "property list uchar int vertex_indices\nend_header\n";
+  bytes.reserve(bytes.size() + num_vertices * 12 + mesh.triangles.size() * 13);
+  for (const Eigen::Vector3f& v : mesh.vertices) {
+    append_little_endian(bytes, v.x());
+    append_little_endian(bytes, v.y());
+    append_little_endian(bytes, v.z());
+  }
+  for (const Eigen::Vector3i& triangle : mesh.triangles) {
+    append_little_endian(bytes, std::uint8_t{3});
+    for (int k = 0; k < 3; ++k) append_little_endian(bytes, static_cast<std::int32_t>(triangle[k]));
+  }
+  write_file_atomic(path, bytes);
+}
+
+TriangleMesh read_ply_mesh(const fs::path& path) {
+  const std::string file = path.string();
+  const std::string data = read_whole_file(path);
+
+  // --- Header: lines up to "end_header".
+  if (data.compare(0, 3, "ply") != 0 || (data.size() > 3 && data[3] != '\n' && data[3] != '\r'))
+    throw make_error(file, "header", "not a PLY file (it does not start with 'ply')");
+  std::size_t offset = 0;
+  bool header_ended = false;
+  bool have_format = false;
+  PlyFormat format = PlyFormat::kAscii;
+  std::vector<PlyElement> elements;
+  int line_number = 0;
+  while (offset < data.size()) {
+    const std::size_t newline = data.find('\n', offset);
+    if (newline == std::string::npos) break;
+    std::string line = data.substr(offset, newline - offset);
+    offset = newline + 1;
+    ++line_number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream words(line);
+    std::string keyword;
+    words >> keyword;
+    const std::string where = "header line " + std::to_string(line_number);
+    if (line_number == 1 || keyword.empty() || keyword == "comment" || keyword == "obj_info") continue;
+    if (keyword == "end_header") {
+      header_ended = true;
+      break;
+    }
+    if (keyword == "format") {
+      std::string name, version;
+      words >> name >> version;
+      if (name == "ascii") format = PlyFormat::kAscii;
+      else if (name == "binary_little_endian") format = PlyFormat::kBinaryLittleEndian;
+      else if (name == "binary_big_endian") format = PlyFormat::kBinaryBigEndian;
+      else throw make_error(file, where, "unknown format '" + name + "'");
+      have_format = true;
+    } else if (keyword == "element") {
+      PlyElement element;
+      std::string count;
+      words >> element.name >> count;
+      char* end = nullptr;
+      const unsigned long long value = std::strtoull(count.c_str(), &end, 10);
+      if (element.name.empty() || count.empty() || *end != '\0' || count[0] == '-')
+        throw make_error(file, where, "malformed element declaration '" + line + "'");
+      element.count = value;
+      elements.push_back(element);
+    } else if (keyword == "property") {
+      if (elements.empty()) throw make_error(file, where, "property before any element");
+      PlyProperty property;
+      std::string type;
+      words >> type;
+      if (type == "list") {
+        std::string count_type, item_type;
+        words >> count_type >> item_type >> property.name;
+        property.is_list = true;
+        if (!parse_type(count_type, &property.count_type) || !is_integer_type(property.count_type))
+          throw make_error(file, where, "bad list count type '" + count_type + "'");
+        if (!parse_type(item_type, &property.type)) throw make_error(file, where, "unknown type '" + item_type + "'");
+      } else {
+        words >> property.name;
+        if (!parse_type(type, &property.type)) throw make_error(file, where, "unknown type '" + type + "'");
+      }
+      if (property.name.empty()) throw make_error(file, where, "property without a name");
+      elements.back().properties.push_back(property);
+    } else {
+      throw make_error(file, where, "unknown header keyword '" + keyword + "'");
+    }
+  }
+  if (!header_ended) throw make_error(file, "header", "no 'end_header' line (truncated or not a PLY file)");
+  if (!have_format) throw make_error(file, "header", "no 'format' line");
+
+  // --- What we need: x, y, z of "vertex" and the index list of "face".
+  const PlyElement* vertex_element = nullptr;
+  const PlyElement* face_element = nullptr;
+  for (const PlyElement& element : elements) {
+    if (element.name == "vertex") vertex_element = &element;
+    if (element.name == "face") face_element = &element;
+  }
+  if (!vertex_element) throw make_error(file, "element vertex", "missing (no vertices)");
+  int coordinate_property[3] = {-1, -1, -1};
+  const char* kAxes[3] = {"x", "y", "z"};
+  for (std::size_t p = 0; p < vertex_element->properties.size(); ++p)
+    for (int axis = 0; axis < 3; ++axis)
+      if (vertex_element->properties[p].name == kAxes[axis] && !vertex_element->properties[p].is_list)
+        coordinate_property[axis] = static_cast<int>(p);
+  for (int axis = 0; axis < 3; ++axis)
+    if (coordinate_property[axis] < 0)
+      throw make_error(file, "element vertex", std::string("missing property '") + kAxes[axis] + "'");
+  if (!face_element) throw make_error(file, "element face", "missing: a mesh needs triangles");
+  int index_property = -1;
+  for (std::size_t p = 0; p < face_element->properties.size(); ++p) {
+    const PlyProperty& property = face_element->properties[p];
+    if (property.is_list && (property.name == "vertex_indices" || property.name == "vertex_index"))
+      index_property = static_cast<int>(p);
+  }
+  if (index_property < 0) throw make_error(file, "element face", "missing list property 'vertex_indices'");
+  if (!is_integer_type(face_element->properties[static_cast<std::size_t>(index_property)].type))
+    throw make_error(file, "element face", "vertex_indices must be an integer list");
+  if (face_element->count == 0) throw make_error(file, "element face", "no faces: a mesh needs triangles");
+
+  // --- Data.
+  std::unique_ptr<DataReader> reader;
+  if (format == PlyFormat::kAscii)
+    reader = std::make_unique<AsciiReader>(file, data, offset);
+  else
+    reader = std::make_unique<BinaryReader>(file, data, offset, format == PlyFormat::kBinaryLittleEndian);
+
+  TriangleMesh mesh;
+  std::vector<std::int64_t> corner_indices;  // 3 per triangle, validated once all vertices are known
+  std::vector<std::uint64_t> triangle_face;   // the face each triangle came from, for error messages
+  for (const PlyElement& element : elements) {
+    const bool is_vertex = &element == vertex_element, is_face = &element == face_element;
+    // Each item takes at least one byte (or token): a larger count than the data left is corrupt.
+    if (element.count > reader->remaining() && !element.properties.empty())
+      throw make_error(file, "element " + element.name,
+                       "declares " + std::to_string(element.count) + " items but the data ends earlier (truncated)");
+    if (is_vertex) mesh.vertices.reserve(static_cast<std::size_t>(element.count));
+    std::vector<std::int64_t> polygon;
+    for (std::uint64_t item = 0; item < element.count; ++item) {
+      const std::string what = element.name + " " + std::to_string(item);
+      Eigen::Vector3d position = Eigen::Vector3d::Zero();
+      for (std::size_t p = 0; p < element.properties.size(); ++p) {
+        const PlyProperty& property = element.properties[p];
+        if (!property.is_list) {
+          if (is_vertex && (static_cast<int>(p) == coordinate_property[0] || static_cast<int>(p) == coordinate_property[1] ||
+                            static_cast<int>(p) == coordinate_property[2])) {
+            const double value = reader->read(property.type, what + " property " + property.name);
+            if (!std::isfinite(value))
+              throw make_error(file, what, "property " + property.name + " is not finite (NaN or inf)");
+            for (int axis = 0; axis < 3; ++axis)
+              if (static_cast<int>(p) == coordinate_property[axis]) position[axis] = value;
+          } else {
+            reader->skip(property.type, what + " property " + property.name);
+          }
+          continue;
+        }
+        const double count_value = reader->read(property.count_type, what + " list count of " + property.name);
+        if (count_value < 0 || count_value > 1e6)
+          throw make_error(file, what, "bad list length " + std::to_string(count_value) + " for " + property.name);
+        const std::size_t count = static_cast<std::size_t>(count_value);
+        const bool wanted = is_face && static_cast<int>(p) == index_property;
+        if (!wanted) {
+          for (std::size_t k = 0; k < count; ++k) reader->skip(property.type, what + " list " + property.name);
+          continue;
+        }
+        if (count < 3) throw make_error(file, what, "a face needs at least 3 vertices, has " + std::to_string(count));
+        polygon.clear();
+        for (std::size_t k = 0; k < count; ++k)
+          polygon.push_back(static_cast<std::int64_t>(reader->read(property.type, what + " vertex_indices")));
+        // Fan triangulation (exact for convex polygons, which is what PLY writers produce).
+        for (std::size_t k = 1; k + 1 < count; ++k) {
+          corner_indices.insert(corner_indices.end(), {polygon[0], polygon[k], polygon[k + 1]});
+          triangle_face.push_back(item);
+        }
+      }
+      if (is_vertex) mesh.vertices.push_back(position.cast<float>());
+      if (is_vertex && !mesh.vertices.back().allFinite())
+        throw make_error(file, what, "coordinate out of float range");
+    }
+  }
+
+  const std::int64_t num_vertices = static_cast<std::int64_t>(mesh.vertices.size());
+  mesh.triangles.reserve(corner_indices.size() / 3);
+  for (std::size_t c = 0; c < corner_indices.size(); c += 3) {
+    Eigen::Vector3i triangle;
+    for (int k = 0; k < 3; ++k) {
+      const std::int64_t index = corner_indices[c + k];
+      if (index < 0 || index >= num_vertices)
+        throw make_error(file, "face " + std::to_string(triangle_face[c / 3]),
+                         "vertex index " + std::to_string(index) + " out of range (" + std::to_string(num_vertices) +
+                             " vertices)");
+      triangle[k] = static_cast<int>(index);
+    }
+    mesh.triangles.push_back(triangle);
+  }
+  if (mesh.triangles.empty()) throw make_error(file, "element face", "no triangles");
+  return mesh;
+}
+
+}  // namespace panoscan

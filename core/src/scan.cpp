@@ -1,0 +1,786 @@
+// The scan format (SPEC §3.6): reading, validating and atomically writing a scan directory.
+//
+// rig.json, format "panoscan-scan", version 1. Every field is required unless marked optional;
+// unknown fields are rejected (a misspelt field must not be silently ignored).
+//
+//   {
+//     "format": "panoscan-scan",          string, exactly this
+//     "version": 1,                       integer, exactly 1 (other versions are refused)
+//     "description": "simulated: ...",    string, optional (default "")
+//     "reference_sensor": 0,              integer index into "sensors"; its ref_from_cam must be identity
+//     "sensors": [                        non-empty list
+//       {
+//         "name": "cam0",                 string of letters, digits, '_' and '-', unique, not "groundtruth";
+//                                         also the sub-directory holding the sensor's images
+//         "width": 640, "height": 480,    integers > 0 (image size in pixels, colour and depth alike)
+//         "fx": 570.0, "fy": 570.0,       numbers > 0 (focal lengths in pixels)
+//         "cx": 319.5, "cy": 239.5,       finite numbers (principal point; pixel centres at integers)
+//         "depth_scale": 5000.0,          number > 0: depth PNG units per metre
+//         "nominal_fps": 30.0,            number > 0: nominal frame rate (actual timestamps are in the listings)
+//         "ref_from_cam": {               calibrated pose of this camera in the reference camera's frame
+//           "translation": [x, y, z],     metres, 3 finite numbers
+//           "rotation_quaternion_xyzw": [qx, qy, qz, qw]   4 finite numbers, unit length (within 1e-6)
+//         }
+//       }, ...
+//     ]
+//   }
+//
+// Per sensor <name>/rgb.txt and <name>/depth.txt are TUM listings: lines "timestamp filename"
+// (filename relative to <name>/), '#' starts a comment line. Timestamps are written with 6
+// decimals, strictly increase, and both listings hold the same timestamps. The writer names
+// the images <name>/rgb/<timestamp>.png and <name>/depth/<timestamp>.png.
+
+#include "panoscan/core/scan.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <mutex>
+#include <set>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "panoscan/core/atomic_output.h"
+#include "panoscan/core/error.h"
+#include "panoscan/core/image_io.h"
+#include "panoscan/core/mesh_io.h"
+
+namespace panoscan {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+constexpr const char* kRigFileName = "rig.json";
+constexpr const char* kGroundtruthDirName = "groundtruth";
+constexpr const char* kListingHeader = "# timestamp filename\n";
+// Guards against absurd sizes whose pixel count would overflow or exhaust memory.
+constexpr int kMaxImageSide = 1 << 15;
+// A stored quaternion must be unit length to this tolerance (rig.json keeps full double precision).
+constexpr double kQuaternionNormTolerance = 1e-6;
+// The reference camera's ref_from_cam must be identity to this tolerance.
+constexpr double kReferenceIdentityTolerance = 1e-9;
+// Rotation matrices in a RigInfo must be orthonormal to this tolerance.
+constexpr double kOrthonormalTolerance = 1e-6;
+
+std::string size_text(int width, int height) { return std::to_string(width) + "x" + std::to_string(height); }
+
+std::string read_text_file(const fs::path& path, const std::string& what) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw make_error(path.string(), "", what + " not found");
+  if (fs::is_directory(path, ec)) throw make_error(path.string(), "", "is a directory, expected " + what);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw make_error(path.string(), "", "cannot open " + what + " for reading");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw make_error(path.string(), "", "error while reading " + what);
+  return text.str();
+}
+
+bool is_valid_sensor_name(const std::string& name) {
+  if (name.empty() || name == kGroundtruthDirName) return false;
+  return std::all_of(name.begin(), name.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+  });
+}
+
+// A path given by a listing or a caller must stay inside the directory it is relative to.
+bool is_safe_relative_path(const std::string& text) {
+  if (text.empty()) return false;
+  const fs::path path(text);
+  if (path.is_absolute() || path.has_root_name() || path.has_root_directory()) return false;
+  for (const fs::path& part : path) {
+    if (part == "..") return false;
+  }
+  return true;
+}
+
+// ---- rig.json field readers: each throws Error naming the origin and the dotted field. ----
+
+const json& require_field(const json& object, const std::string& key, const std::string& origin,
+                          const std::string& object_field) {
+  const auto it = object.find(key);
+  const std::string field = object_field.empty() ? key : object_field + "." + key;
+  if (it == object.end()) throw make_error(origin, field, "missing field");
+  return *it;
+}
+
+std::string json_type_text(const json& value) {
+  std::string dumped = value.dump();
+  if (dumped.size() > 40) dumped = dumped.substr(0, 37) + "...";
+  return std::string(value.type_name()) + " " + dumped;
+}
+
+double read_number(const json& value, const std::string& origin, const std::string& field) {
+  if (!value.is_number()) throw make_error(origin, field, "expected a number, found " + json_type_text(value));
+  const double number = value.get<double>();
+  if (!std::isfinite(number)) throw make_error(origin, field, "expected a finite number");
+  return number;
+}
+
+double read_positive_number(const json& value, const std::string& origin, const std::string& field) {
+  const double number = read_number(value, origin, field);
+  if (!(number > 0.0)) throw make_error(origin, field, "expected a positive number, found " + value.dump());
+  return number;
+}
+
+long long read_integer(const json& value, const std::string& origin, const std::string& field) {
+  if (!value.is_number_integer()) throw make_error(origin, field, "expected an integer, found " + json_type_text(value));
+  if (value.is_number_unsigned()) {
+    const auto unsigned_value = value.get<std::uint64_t>();
+    if (unsigned_value > static_cast<std::uint64_t>(std::numeric_limits<long long>::max())) {
+      throw make_error(origin, field, "integer " + value.dump() + " is too large");
+    }
+  }
+  return value.get<long long>();
+}
+
+std::string read_string(const json& value, const std::string& origin, const std::string& field) {
+  if (!value.is_string()) throw make_error(origin, field, "expected a string, found " + json_type_text(value));
+  return value.get<std::string>();
+}
+
+std::vector<double> read_number_list(const json& value, std::size_t expected_size, const std::string& origin,
+                                     const std::string& field) {
+  if (!value.is_array() || value.size() != expected_size) {
+    throw make_error(origin, field,
+                     "expected a list of " + std::to_string(expected_size) + " numbers, found " + json_type_text(value));
+  }
+  std::vector<double> numbers;
+  for (std::size_t i = 0; i < value.size(); ++i) {
+    numbers.push_back(read_number(value[i], origin, field + "[" + std::to_string(i) + "]"));
+  }
+  return numbers;
+}
+
+void reject_unknown_fields(const json& object, const std::set<std::string>& known, const std::string& origin,
+                           const std::string& object_field) {
+  for (const auto& item : object.items()) {
+    if (!known.count(item.key())) {
+      const std::string field = object_field.empty() ? item.key() : object_field + "." + item.key();
+      throw make_error(origin, field, "unknown field (a typo? this is rig.json format version " +
+                                          std::to_string(kScanFormatVersion) + ")");
+    }
+  }
+}
+
+Rigid3d read_pose(const json& object, const std::string& origin, const std::string& field) {
+  if (!object.is_object()) throw make_error(origin, field, "expected an object, found " + json_type_text(object));
+  reject_unknown_fields(object, {"translation", "rotation_quaternion_xyzw"}, origin, field);
+  const std::vector<double> t =
+      read_number_list(require_field(object, "translation", origin, field), 3, origin, field + ".translation");
+  const std::string rotation_field = field + ".rotation_quaternion_xyzw";
+  const std::vector<double> q =
+      read_number_list(require_field(object, "rotation_quaternion_xyzw", origin, field), 4, origin, rotation_field);
+  Eigen::Quaterniond rotation(q[3], q[0], q[1], q[2]);  // Eigen's constructor order is (w, x, y, z)
+  if (std::abs(rotation.norm() - 1.0) > kQuaternionNormTolerance) {
+    throw make_error(origin, rotation_field,
+                     "quaternion is not unit length (norm " + std::to_string(rotation.norm()) + ")");
+  }
+  rotation.normalize();
+  return make_rigid(rotation, Eigen::Vector3d(t[0], t[1], t[2]));
+}
+
+// Checks the invariants of a RigInfo, whether it was read from rig.json or built in memory
+// (the writer validates before writing, so that it never produces a rig.json the reader refuses).
+void validate_rig(const RigInfo& rig, const std::string& origin) {
+  if (rig.sensors.empty()) throw make_error(origin, "sensors", "the rig has no sensors");
+  if (rig.reference_sensor < 0 || rig.reference_sensor >= static_cast<int>(rig.sensors.size())) {
+    throw make_error(origin, "reference_sensor",
+                     "index " + std::to_string(rig.reference_sensor) + " is out of range (the rig has " +
+                         std::to_string(rig.sensors.size()) + " sensors)");
+  }
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < rig.sensors.size(); ++i) {
+    const SensorInfo& sensor = rig.sensors[i];
+    const std::string field = "sensors[" + std::to_string(i) + "]";
+    if (!is_valid_sensor_name(sensor.name)) {
+      throw make_error(origin, field + ".name",
+                       "'" + sensor.name +
+                           "' is not a valid sensor name (letters, digits, '_' and '-' only; not 'groundtruth')");
+    }
+    if (!names.insert(sensor.name).second) {
+      throw make_error(origin, field + ".name", "sensor name '" + sensor.name + "' is used twice");
+    }
+    const PinholeIntrinsics& k = sensor.intrinsics;
+    if (k.width <= 0 || k.width > kMaxImageSide) {
+      throw make_error(origin, field + ".width",
+                       "expected an integer in [1, " + std::to_string(kMaxImageSide) + "], found " + std::to_string(k.width));
+    }
+    if (k.height <= 0 || k.height > kMaxImageSide) {
+      throw make_error(origin, field + ".height",
+                       "expected an integer in [1, " + std::to_string(kMaxImageSide) + "], found " +
+                           std::to_string(k.height));
+    }
+    const std::pair<const char*, double> positive_values[] = {
+        {"fx", k.fx}, {"fy", k.fy}, {"depth_scale", sensor.depth_scale}, {"nominal_fps", sensor.nominal_fps}};
+    for (const auto& [name, value] : positive_values) {
+      if (!std::isfinite(value) || !(value > 0.0)) {
+        throw make_error(origin, field + "." + name, "expected a finite positive number, found " + std::to_string(value));
+      }
+    }
+    if (!std::isfinite(k.cx)) throw make_error(origin, field + ".cx", "expected a finite number");
+    if (!std::isfinite(k.cy)) throw make_error(origin, field + ".cy", "expected a finite number");
+    const Eigen::Matrix3d rotation = sensor.ref_from_cam.linear();
+    const Eigen::Vector3d translation = sensor.ref_from_cam.translation();
+    if (!rotation.allFinite() || !translation.allFinite()) {
+      throw make_error(origin, field + ".ref_from_cam", "contains non-finite numbers");
+    }
+    if ((rotation.transpose() * rotation - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > kOrthonormalTolerance ||
+        rotation.determinant() < 0.0) {
+      throw make_error(origin, field + ".ref_from_cam", "the rotation is not a proper rotation matrix");
+    }
+  }
+  const Rigid3d& reference_pose = rig.sensors[rig.reference_sensor].ref_from_cam;
+  const double deviation = std::max((reference_pose.linear() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(),
+                                    reference_pose.translation().cwiseAbs().maxCoeff());
+  if (deviation > kReferenceIdentityTolerance) {
+    throw make_error(origin, "sensors[" + std::to_string(rig.reference_sensor) + "].ref_from_cam",
+                     "the reference sensor's pose in its own frame must be identity");
+  }
+}
+
+RigInfo read_rig_file(const fs::path& scan_dir) {
+  const fs::path path = scan_dir / kRigFileName;
+  return rig_from_json(read_text_file(path, "rig file"), path.string());
+}
+
+// ---- TUM listings ("timestamp filename") ----
+
+struct ListingEntry {
+  double timestamp = 0.0;
+  std::string timestamp_text;  // as written, for messages
+  std::string file;            // relative to the camera directory
+  std::size_t line_number = 0;
+};
+
+bool parse_timestamp(const std::string& token, double* value) {
+  errno = 0;
+  char* end = nullptr;
+  const double parsed = std::strtod(token.c_str(), &end);
+  if (token.empty() || end != token.c_str() + token.size() || errno == ERANGE || !std::isfinite(parsed)) return false;
+  *value = parsed;
+  return true;
+}
+
+std::vector<ListingEntry> read_listing(const fs::path& listing_path, const fs::path& camera_dir) {
+  const std::string listing = listing_path.string();
+  std::error_code ec;
+  if (!fs::exists(listing_path, ec)) throw make_error(listing, "", "listing not found");
+  std::ifstream in(listing_path);
+  if (!in) throw make_error(listing, "", "cannot open listing for reading");
+
+  std::vector<ListingEntry> entries;
+  std::string line;
+  std::size_t line_number = 0;
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const std::size_t first = line.find_first_not_of(" \t");
+    if (first == std::string::npos || line[first] == '#') continue;
+    const std::string field = "line " + std::to_string(line_number);
+
+    std::istringstream tokens(line);
+    std::vector<std::string> parts;
+    std::string token;
+    while (tokens >> token) parts.push_back(token);
+    if (parts.size() != 2) {
+      throw make_error(listing, field,
+                       "expected 'timestamp filename', found " + std::to_string(parts.size()) + " fields");
+    }
+    ListingEntry entry;
+    entry.timestamp_text = parts[0];
+    entry.file = parts[1];
+    entry.line_number = line_number;
+    if (!parse_timestamp(parts[0], &entry.timestamp)) {
+      throw make_error(listing, field, "timestamp '" + parts[0] + "' is not a finite number");
+    }
+    if (!entries.empty() && !(entry.timestamp > entries.back().timestamp)) {
+      const char* problem = entry.timestamp == entries.back().timestamp ? "repeats" : "is before";
+      throw make_error(listing, field,
+                       "timestamp " + parts[0] + " " + problem + " the previous one (" + entries.back().timestamp_text +
+                           "); timestamps must strictly increase");
+    }
+    if (!is_safe_relative_path(entry.file)) {
+      throw make_error(listing, field, "file name '" + entry.file + "' must be a path relative to " + camera_dir.string());
+    }
+    const fs::path image_path = camera_dir / entry.file;
+    if (!fs::is_regular_file(image_path, ec)) {
+      throw make_error(listing, field, "listed file not found: " + image_path.string());
+    }
+    entries.push_back(std::move(entry));
+  }
+  if (in.bad()) throw make_error(listing, "", "error while reading listing");
+  if (entries.empty()) throw make_error(listing, "", "the listing holds no frames");
+  return entries;
+}
+
+// Pairs the two listings of one camera; both must hold exactly the same timestamps.
+std::vector<FrameEntry> pair_listings(const std::vector<ListingEntry>& rgb, const fs::path& rgb_listing,
+                                      const std::vector<ListingEntry>& depth, const fs::path& depth_listing) {
+  std::vector<FrameEntry> frames;
+  std::size_t r = 0;
+  std::size_t d = 0;
+  while (r < rgb.size() || d < depth.size()) {
+    // Both lists strictly increase, so the smaller current timestamp is absent from the other list.
+    const bool rgb_lacks = r == rgb.size() || (d < depth.size() && depth[d].timestamp < rgb[r].timestamp);
+    const bool depth_lacks = d == depth.size() || (r < rgb.size() && rgb[r].timestamp < depth[d].timestamp);
+    if (rgb_lacks) {
+      throw make_error(rgb_listing.string(), "timestamp " + depth[d].timestamp_text,
+                       "missing here but listed in " + depth_listing.string() + " (line " +
+                           std::to_string(depth[d].line_number) + ")");
+    }
+    if (depth_lacks) {
+      throw make_error(depth_listing.string(), "timestamp " + rgb[r].timestamp_text,
+                       "missing here but listed in " + rgb_listing.string() + " (line " +
+                           std::to_string(rgb[r].line_number) + ")");
+    }
+    FrameEntry frame;
+    frame.timestamp = rgb[r].timestamp;
+    frame.rgb_file = rgb[r].file;
+    frame.depth_file = depth[d].file;
+    frames.push_back(std::move(frame));
+    ++r;
+    ++d;
+  }
+  return frames;
+}
+
+void check_image_size(const std::string& file, int width, int height, const PinholeIntrinsics& intrinsics) {
+  if (width != intrinsics.width || height != intrinsics.height) {
+    throw make_error(file, "image size",
+                     "expected " + size_text(intrinsics.width, intrinsics.height) + ", found " + size_text(width, height));
+  }
+}
+
+template <typename T>
+void check_image_shape(const Image<T>& image, int channels, const std::string& origin, const std::string& field) {
+  if (image.channels != channels || image.width < 0 || image.height < 0 ||
+      image.data.size() != std::size_t(image.width) * image.height * image.channels) {
+    throw make_error(origin, field,
+                     "expected a " + std::to_string(channels) + "-channel image, found " + std::to_string(image.channels) +
+                         " channels, " + size_text(image.width, image.height) + ", " + std::to_string(image.data.size()) +
+                         " values");
+  }
+}
+
+void check_depth_scale(double depth_scale) {
+  if (!std::isfinite(depth_scale) || !(depth_scale > 0.0)) {
+    throw make_error("", "depth_scale", "expected a finite positive number, found " + std::to_string(depth_scale));
+  }
+}
+
+}  // namespace
+
+// ---- rig.json ----
+
+std::string rig_to_json(const RigInfo& rig) {
+  validate_rig(rig, "rig");
+  json sensors = json::array();
+  for (const SensorInfo& sensor : rig.sensors) {
+    const Eigen::Quaterniond rotation(sensor.ref_from_cam.linear());
+    const Eigen::Vector3d translation = sensor.ref_from_cam.translation();
+    json sensor_json;
+    sensor_json["name"] = sensor.name;
+    sensor_json["width"] = sensor.intrinsics.width;
+    sensor_json["height"] = sensor.intrinsics.height;
+    sensor_json["fx"] = sensor.intrinsics.fx;
+    sensor_json["fy"] = sensor.intrinsics.fy;
+    sensor_json["cx"] = sensor.intrinsics.cx;
+    sensor_json["cy"] = sensor.intrinsics.cy;
+    sensor_json["depth_scale"] = sensor.depth_scale;
+    sensor_json["nominal_fps"] = sensor.nominal_fps;
+    sensor_json["ref_from_cam"] = {
+        {"translation", {translation.x(), translation.y(), translation.z()}},
+        {"rotation_quaternion_xyzw", {rotation.x(), rotation.y(), rotation.z(), rotation.w()}}};
+    sensors.push_back(std::move(sensor_json));
+  }
+  json document;
+  document["format"] = kScanFormatName;
+  document["version"] = kScanFormatVersion;
+  document["description"] = rig.description;
+  document["reference_sensor"] = rig.reference_sensor;
+  document["sensors"] = std::move(sensors);
+  // nlohmann writes doubles with enough digits to read back the same value.
+  return document.dump(2) + "\n";
+}
+
+RigInfo rig_from_json(const std::string& text, const std::string& origin) {
+  json document;
+  try {
+    document = json::parse(text);
+  } catch (const json::exception& e) {  // parse_error, and out_of_range for numbers like 1e999
+    throw make_error(origin, "", std::string("invalid JSON: ") + e.what());
+  }
+  if (!document.is_object()) throw make_error(origin, "", "expected a JSON object at the top level");
+
+  // Format and version first: a file of another version may legitimately lack our fields.
+  const std::string format = read_string(require_field(document, "format", origin, ""), origin, "format");
+  if (format != kScanFormatName) {
+    throw make_error(origin, "format", "expected '" + std::string(kScanFormatName) + "', found '" + format + "'");
+  }
+  const long long version = read_integer(require_field(document, "version", origin, ""), origin, "version");
+  if (version != kScanFormatVersion) {
+    throw make_error(origin, "version",
+                     "expected " + std::to_string(kScanFormatVersion) + ", found " + std::to_string(version));
+  }
+  reject_unknown_fields(document, {"format", "version", "description", "reference_sensor", "sensors"}, origin, "");
+
+  RigInfo rig;
+  if (document.contains("description")) {
+    rig.description = read_string(document["description"], origin, "description");
+  }
+  const long long reference =
+      read_integer(require_field(document, "reference_sensor", origin, ""), origin, "reference_sensor");
+  const json& sensors = require_field(document, "sensors", origin, "");
+  if (!sensors.is_array()) throw make_error(origin, "sensors", "expected a list, found " + json_type_text(sensors));
+  if (sensors.empty()) throw make_error(origin, "sensors", "the rig has no sensors");
+  if (reference < 0 || reference >= static_cast<long long>(sensors.size())) {
+    throw make_error(origin, "reference_sensor",
+                     "index " + std::to_string(reference) + " is out of range (the rig has " +
+                         std::to_string(sensors.size()) + " sensors)");
+  }
+  rig.reference_sensor = static_cast<int>(reference);
+
+  for (std::size_t i = 0; i < sensors.size(); ++i) {
+    const json& sensor_json = sensors[i];
+    const std::string field = "sensors[" + std::to_string(i) + "]";
+    if (!sensor_json.is_object()) throw make_error(origin, field, "expected an object, found " + json_type_text(sensor_json));
+    reject_unknown_fields(sensor_json,
+                          {"name", "width", "height", "fx", "fy", "cx", "cy", "depth_scale", "nominal_fps", "ref_from_cam"},
+                          origin, field);
+    auto required = [&](const char* key) -> const json& { return require_field(sensor_json, key, origin, field); };
+    auto sub = [&](const char* key) { return field + "." + key; };
+
+    SensorInfo sensor;
+    sensor.name = read_string(required("name"), origin, sub("name"));
+    auto read_image_side = [&](const char* key) {
+      const long long value = read_integer(required(key), origin, sub(key));
+      if (value <= 0 || value > kMaxImageSide) {
+        throw make_error(origin, sub(key),
+                         "expected an integer in [1, " + std::to_string(kMaxImageSide) + "], found " + std::to_string(value));
+      }
+      return static_cast<int>(value);
+    };
+    sensor.intrinsics.width = read_image_side("width");
+    sensor.intrinsics.height = read_image_side("height");
+    sensor.intrinsics.fx = read_positive_number(required("fx"), origin, sub("fx"));
+    sensor.intrinsics.fy = read_positive_number(required("fy"), origin, sub("fy"));
+    sensor.intrinsics.cx = read_number(required("cx"), origin, sub("cx"));
+    sensor.intrinsics.cy = read_number(required("cy"), origin, sub("cy"));
+    sensor.depth_scale = read_positive_number(required("depth_scale"), origin, sub("depth_scale"));
+    sensor.nominal_fps = read_positive_number(required("nominal_fps"), origin, sub("nominal_fps"));
+    sensor.ref_from_cam = read_pose(required("ref_from_cam"), origin, sub("ref_from_cam"));
+    rig.sensors.push_back(std::move(sensor));
+  }
+  validate_rig(rig, origin);  // names, duplicates, reference identity
+  return rig;
+}
+
+// ---- reading ----
+
+ScanIndex read_scan_index(const fs::path& scan_dir) {
+  std::error_code ec;
+  if (!fs::is_directory(scan_dir, ec)) throw make_error(scan_dir.string(), "", "scan directory not found");
+  ScanIndex scan;
+  scan.root = scan_dir;
+  scan.rig = read_rig_file(scan_dir);
+  for (const SensorInfo& sensor : scan.rig.sensors) {
+    const fs::path camera_dir = scan_dir / sensor.name;
+    const fs::path rgb_listing = camera_dir / "rgb.txt";
+    const fs::path depth_listing = camera_dir / "depth.txt";
+    const std::vector<ListingEntry> rgb = read_listing(rgb_listing, camera_dir);
+    const std::vector<ListingEntry> depth = read_listing(depth_listing, camera_dir);
+    scan.frames.push_back(pair_listings(rgb, rgb_listing, depth, depth_listing));
+  }
+  return scan;
+}
+
+RgbdFrame load_frame(const ScanIndex& scan, int sensor, std::size_t frame_index) {
+  if (sensor < 0 || sensor >= static_cast<int>(scan.rig.sensors.size()) ||
+      scan.frames.size() != scan.rig.sensors.size()) {
+    throw make_error(scan.root.string(), "sensor",
+                     "index " + std::to_string(sensor) + " is out of range (the rig has " +
+                         std::to_string(scan.rig.sensors.size()) + " sensors)");
+  }
+  const SensorInfo& info = scan.rig.sensors[sensor];
+  if (frame_index >= scan.frames[sensor].size()) {
+    throw make_error(scan.root.string(), info.name,
+                     "frame " + std::to_string(frame_index) + " is out of range (" +
+                         std::to_string(scan.frames[sensor].size()) + " frames)");
+  }
+  const FrameEntry& entry = scan.frames[sensor][frame_index];
+  const fs::path camera_dir = scan.root / info.name;
+  const fs::path rgb_path = camera_dir / entry.rgb_file;
+  const fs::path depth_path = camera_dir / entry.depth_file;
+
+  RgbdFrame frame;
+  frame.timestamp = entry.timestamp;
+  frame.rgb = read_rgb(rgb_path);
+  check_image_size(rgb_path.string(), frame.rgb.width, frame.rgb.height, info.intrinsics);
+  const ImageU16 depth_units = read_png16(depth_path);
+  check_image_size(depth_path.string(), depth_units.width, depth_units.height, info.intrinsics);
+  frame.depth = depth_from_png_units(depth_units, info.depth_scale);
+  return frame;
+}
+
+fs::path groundtruth_dir(const fs::path& scan_dir) { return scan_dir / kGroundtruthDirName; }
+
+std::vector<StampedPose> read_groundtruth_trajectory(const fs::path& scan_dir, int sensor) {
+  const RigInfo rig = read_rig_file(scan_dir);
+  if (sensor < 0 || sensor >= static_cast<int>(rig.sensors.size())) {
+    throw make_error((scan_dir / kRigFileName).string(), "sensors",
+                     "sensor index " + std::to_string(sensor) + " is out of range (the rig has " +
+                         std::to_string(rig.sensors.size()) + " sensors)");
+  }
+  return read_tum_trajectory(groundtruth_dir(scan_dir) / (rig.sensors[sensor].name + ".txt"));
+}
+
+// ---- depth units ----
+
+ImageU16 depth_to_png_units(const ImageF32& depth_m, double depth_scale) {
+  check_depth_scale(depth_scale);
+  check_image_shape(depth_m, 1, "", "depth");
+  ImageU16 units(depth_m.width, depth_m.height, 1, 0);
+  for (std::size_t i = 0; i < depth_m.data.size(); ++i) {
+    const double z = depth_m.data[i];
+    // NaN, infinity, zero and negative depths are all "no measurement".
+    if (!std::isfinite(z) || !(z > 0.0)) continue;
+    const double scaled = z * depth_scale;
+    if (scaled > 65535.5) continue;  // beyond the 16-bit range: invalid rather than clipped
+    const long rounded = std::lround(scaled);
+    if (rounded > 65535) continue;
+    units.data[i] = static_cast<std::uint16_t>(rounded);
+  }
+  return units;
+}
+
+ImageF32 depth_from_png_units(const ImageU16& depth, double depth_scale) {
+  check_depth_scale(depth_scale);
+  check_image_shape(depth, 1, "", "depth");
+  ImageF32 metres(depth.width, depth.height, 1, 0.0f);
+  for (std::size_t i = 0; i < depth.data.size(); ++i) {
+    if (depth.data[i] != 0) metres.data[i] = static_cast<float>(depth.data[i] / depth_scale);
+  }
+  return metres;
+}
+
+// ---- writing ----
+
+struct ScanWriter::Impl {
+  struct SensorState {
+    std::vector<FrameEntry> frames;  // successfully written frames
+    bool has_timestamp = false;
+    double last_timestamp = 0.0;     // as read back from its 6-decimal text
+  };
+
+  fs::path scan_dir;
+  RigInfo rig;
+  int png_compression = 1;
+  std::unique_ptr<AtomicDirectory> directory;
+  // Guards the bookkeeping below; image encoding runs outside it so sensors write in parallel.
+  std::mutex mutex;
+  std::vector<SensorState> sensors;
+  bool committed = false;
+
+  std::string origin() const { return scan_dir.string(); }
+
+  void check_not_committed() const {
+    if (committed) throw make_error(origin(), "", "the scan was already committed; no further writes");
+  }
+
+  const SensorInfo& sensor_info(int sensor) const {
+    if (sensor < 0 || sensor >= static_cast<int>(rig.sensors.size())) {
+      throw make_error(origin(), "sensor",
+                       "index " + std::to_string(sensor) + " is out of range (the rig has " +
+                           std::to_string(rig.sensors.size()) + " sensors)");
+    }
+    return rig.sensors[sensor];
+  }
+
+  void check_depth_image(const ImageU16& depth, const SensorInfo& info, const std::string& what) const {
+    check_image_shape(depth, 1, origin(), info.name + " " + what);
+    if (depth.width != info.intrinsics.width || depth.height != info.intrinsics.height) {
+      throw make_error(origin(), info.name + " " + what + " size",
+                       "expected " + size_text(info.intrinsics.width, info.intrinsics.height) + ", found " +
+                           size_text(depth.width, depth.height));
+    }
+  }
+
+  void create_directory(const fs::path& path) const {
+    std::error_code ec;
+    fs::create_directories(path, ec);
+    if (ec) throw make_error(path.string(), "", "cannot create directory: " + ec.message());
+  }
+};
+
+ScanWriter::ScanWriter(const fs::path& scan_dir, const RigInfo& rig, bool overwrite, int png_compression)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->scan_dir = scan_dir;
+  impl_->rig = rig;
+  validate_rig(rig, (scan_dir / kRigFileName).string());
+  if (png_compression < 0 || png_compression > 9) {
+    throw make_error(scan_dir.string(), "png_compression",
+                     "expected an integer in [0, 9], found " + std::to_string(png_compression));
+  }
+  impl_->png_compression = png_compression;
+  try {
+    impl_->directory = std::make_unique<AtomicDirectory>(scan_dir, overwrite);
+  } catch (const fs::filesystem_error& e) {
+    throw make_error(scan_dir.string(), "", std::string("cannot create the scan directory: ") + e.what());
+  }
+  impl_->create_directory(impl_->directory->temp_path());
+  for (const SensorInfo& sensor : rig.sensors) {
+    impl_->create_directory(impl_->directory->temp_path() / sensor.name / "rgb");
+    impl_->create_directory(impl_->directory->temp_path() / sensor.name / "depth");
+  }
+  impl_->sensors.resize(rig.sensors.size());
+}
+
+ScanWriter::~ScanWriter() = default;  // AtomicDirectory removes the temporary directory unless committed
+
+void ScanWriter::write_frame(int sensor, double timestamp, const ImageU8& rgb, const ImageU16& depth) {
+  std::string timestamp_text;
+  fs::path rgb_path;
+  fs::path depth_path;
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->check_not_committed();
+    const SensorInfo& info = impl_->sensor_info(sensor);
+    if (!std::isfinite(timestamp)) throw make_error(impl_->origin(), info.name, "frame timestamp is not finite");
+    check_image_shape(rgb, 3, impl_->origin(), info.name + " rgb image");
+    if (rgb.width != info.intrinsics.width || rgb.height != info.intrinsics.height) {
+      throw make_error(impl_->origin(), info.name + " rgb image size",
+                       "expected " + size_text(info.intrinsics.width, info.intrinsics.height) + ", found " +
+                           size_text(rgb.width, rgb.height));
+    }
+    impl_->check_depth_image(depth, info, "depth image");
+
+    // The file name and the listing hold the timestamp with 6 decimals, so the ordering is
+    // checked on that text: two frames 1e-7 s apart would otherwise share a file name.
+    timestamp_text = format_timestamp(timestamp);
+    const double written_timestamp = std::strtod(timestamp_text.c_str(), nullptr);
+    Impl::SensorState& state = impl_->sensors[sensor];
+    if (state.has_timestamp && !(written_timestamp > state.last_timestamp)) {
+      throw make_error(impl_->origin(), info.name,
+                       "frame timestamp " + timestamp_text + " does not increase (previous " +
+                           format_timestamp(state.last_timestamp) +
+                           "; frames of one sensor must arrive in time order, timestamps kept to 6 decimals)");
+    }
+    // Reserve the timestamp now so that the ordering holds even while the images are encoded.
+    state.has_timestamp = true;
+    state.last_timestamp = written_timestamp;
+    const fs::path camera_dir = impl_->directory->temp_path() / info.name;
+    rgb_path = camera_dir / "rgb" / (timestamp_text + ".png");
+    depth_path = camera_dir / "depth" / (timestamp_text + ".png");
+  }
+
+  write_png(rgb_path, rgb, impl_->png_compression);
+  write_png16(depth_path, depth, impl_->png_compression);
+
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  FrameEntry entry;
+  entry.timestamp = std::strtod(timestamp_text.c_str(), nullptr);
+  entry.rgb_file = "rgb/" + timestamp_text + ".png";
+  entry.depth_file = "depth/" + timestamp_text + ".png";
+  impl_->sensors[sensor].frames.push_back(std::move(entry));
+}
+
+void ScanWriter::write_clean_depth(int sensor, double timestamp, const ImageU16& depth) {
+  fs::path path;
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->check_not_committed();
+    const SensorInfo& info = impl_->sensor_info(sensor);
+    if (!std::isfinite(timestamp)) throw make_error(impl_->origin(), info.name, "clean depth timestamp is not finite");
+    impl_->check_depth_image(depth, info, "clean depth image");
+    const fs::path directory = impl_->directory->temp_path() / kGroundtruthDirName / "depth_clean" / info.name;
+    impl_->create_directory(directory);
+    path = directory / (format_timestamp(timestamp) + ".png");
+  }
+  write_png16(path, depth, impl_->png_compression);
+}
+
+void ScanWriter::write_groundtruth_trajectory(int sensor, const std::vector<StampedPose>& poses) {
+  fs::path path;
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->check_not_committed();
+    const SensorInfo& info = impl_->sensor_info(sensor);
+    const fs::path directory = impl_->directory->temp_path() / kGroundtruthDirName;
+    impl_->create_directory(directory);
+    path = directory / (info.name + ".txt");
+  }
+  write_tum_trajectory(path, poses);
+}
+
+void ScanWriter::write_groundtruth_file(const std::string& name, const std::string& bytes) {
+  fs::path path;
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->check_not_committed();
+    if (!is_safe_relative_path(name)) {
+      throw make_error(impl_->origin(), "groundtruth file",
+                       "'" + name + "' must be a relative path inside " + std::string(kGroundtruthDirName) + "/");
+    }
+    path = impl_->directory->temp_path() / kGroundtruthDirName / name;
+    impl_->create_directory(path.parent_path());
+  }
+  write_file_atomic(path, bytes);
+}
+
+void ScanWriter::write_groundtruth_mesh(const TriangleMesh& mesh) {
+  fs::path path;
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->check_not_committed();
+    const fs::path directory = impl_->directory->temp_path() / kGroundtruthDirName;
+    impl_->create_directory(directory);
+    path = directory / "mesh.ply";
+  }
+  write_ply_mesh(path, mesh);
+}
+
+fs::path ScanWriter::temp_path(const std::string& relative) const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->check_not_committed();
+  if (!is_safe_relative_path(relative)) {
+    throw make_error(impl_->origin(), "temp_path", "'" + relative + "' must be a relative path inside the scan");
+  }
+  const fs::path path = impl_->directory->temp_path() / relative;
+  // Callers write the file themselves; make sure its folder exists so they need not know the layout.
+  impl_->create_directory(path.parent_path());
+  return path;
+}
+
+void ScanWriter::commit() {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->check_not_committed();
+  const fs::path root = impl_->directory->temp_path();
+  for (std::size_t s = 0; s < impl_->rig.sensors.size(); ++s) {
+    const SensorInfo& info = impl_->rig.sensors[s];
+    std::vector<FrameEntry> frames = impl_->sensors[s].frames;
+    // The reader refuses a camera without frames, so the writer does not produce one.
+    if (frames.empty()) throw make_error(impl_->origin(), info.name, "no frames were written for this sensor");
+    std::sort(frames.begin(), frames.end(),
+              [](const FrameEntry& a, const FrameEntry& b) { return a.timestamp < b.timestamp; });
+    std::string rgb_listing = kListingHeader;
+    std::string depth_listing = kListingHeader;
+    for (const FrameEntry& frame : frames) {
+      const std::string timestamp_text = format_timestamp(frame.timestamp);
+      rgb_listing += timestamp_text + " " + frame.rgb_file + "\n";
+      depth_listing += timestamp_text + " " + frame.depth_file + "\n";
+    }
+    write_file_atomic(root / info.name / "rgb.txt", rgb_listing);
+    write_file_atomic(root / info.name / "depth.txt", depth_listing);
+  }
+  write_file_atomic(root / kRigFileName, rig_to_json(impl_->rig));
+  impl_->directory->commit();
+  impl_->committed = true;
+}
+
+}  // namespace panoscan

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs PanoScan's Debian 12 dependencies (as root), configures and builds Release with 2 jobs.
+# Safe to run twice: apt-get skips what is installed, CMake rebuilds only what changed.
+# Usage: bash scripts/setup.sh [BUILD_DIR]   (default: build)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build_dir="${1:-build}"
+
+packages=(
+  build-essential cmake ninja-build pkg-config git
+  libeigen3-dev libembree-dev libopencv-dev libassimp-dev libopenexr-dev libtbb-dev
+  libcli11-dev nlohmann-json3-dev libyaml-cpp-dev libspdlog-dev libfmt-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  if [ "$(id -u)" -ne 0 ]; then
+    echo "setup.sh: missing packages (${missing[*]}); run as root to install them" >&2
+    exit 1
+  fi
+  echo "setup.sh: installing ${#missing[@]} Debian packages"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release
+cmake --build "$build_dir" -j 2
+echo "setup.sh: built into $build_dir (program: $build_dir/app/panoscan)"

@@ -1,0 +1,65 @@
+// The scan simulator: renders one scanning position of a scene with the rig on the wobbling
+// rotator and writes the scan (SPEC §3.6) with its ground truth. Also usable in memory.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "panoscan/core/geometry.h"
+#include "panoscan/core/image.h"
+#include "panoscan/core/mesh.h"
+#include "panoscan/core/scan.h"
+#include "panoscan/sim/motion.h"
+#include "panoscan/sim/options.h"
+#include "panoscan/sim/renderer.h"
+#include "panoscan/sim/rig.h"
+#include "panoscan/sim/shutter.h"
+
+namespace panoscan {
+
+struct SimulatedFrame {
+  int sensor = 0;
+  int index = 0;
+  double timestamp = 0.0;
+  Rigid3d world_from_cam = Rigid3d::Identity();  // ground truth
+  ImageU8 rgb;
+  ImageF32 depth;         // noisy (metres, 0 = invalid), before PNG quantisation
+  ImageF32 clean_depth;   // noiseless z (range-limited), metres
+  ImageI32 triangle_id;
+};
+
+class Simulator {
+ public:
+  // Validates the options and the position index; `scene` must outlive the simulator.
+  Simulator(const Scene& scene, int position_index, const SimOptions& options);
+
+  const RigModel& rig() const { return rig_; }
+  const MotionModel& motion() const { return motion_; }
+  const std::vector<std::vector<FrameTime>>& schedule() const { return schedule_; }
+  const SimOptions& options() const { return options_; }
+  const Renderer& renderer() const { return renderer_; }
+
+  Rigid3d world_from_bracket(double t) const;
+  Rigid3d world_from_cam(int sensor, double t) const;  // ground truth
+  RigInfo rig_info() const;                            // what rig.json holds (calibrated extrinsics)
+  std::string rig_truth_json() const;                  // groundtruth/rig_truth.json
+
+  SimulatedFrame render_frame(const FrameTime& frame) const;
+
+  // Renders every scheduled frame and writes the scan directory atomically. Returns the number
+  // of frames written. Uses options().threads threads.
+  std::size_t write_scan(const std::filesystem::path& scan_dir, bool overwrite) const;
+
+ private:
+  const Scene& scene_;
+  ScanPosition position_;
+  SimOptions options_;
+  RigModel rig_;
+  MotionModel motion_;
+  Renderer renderer_;
+  std::vector<std::vector<FrameTime>> schedule_;
+};
+
+}  // namespace panoscan

@@ -1,0 +1,249 @@
+#include "panoscan/sim/renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <embree3/rtcore.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "panoscan/core/error.h"
+
+namespace panoscan {
+
+struct Renderer::Impl {
+  const Scene& scene;
+  RTCDevice device = nullptr;
+  RTCScene rtc_scene = nullptr;
+  std::vector<Eigen::Vector3f> triangle_normals;  // unit geometric normals
+
+  explicit Impl(const Scene& s) : scene(s) {}
+  ~Impl() {
+    if (rtc_scene) rtcReleaseScene(rtc_scene);
+    if (device) rtcReleaseDevice(device);
+  }
+
+  Eigen::Vector3f sample_texture(const Texture& texture, float u, float v) const {
+    // Bilinear with wrap-around; row 0 is v = 1 (top).
+    const float sx = u * texture.width - 0.5f;
+    const float sy = (1.0f - v) * texture.height - 0.5f;
+    const float fx0 = std::floor(sx), fy0 = std::floor(sy);
+    const float ax = sx - fx0, ay = sy - fy0;
+    auto wrap = [](long i, int n) { long m = i % n; return int(m < 0 ? m + n : m); };
+    const int x0 = wrap(long(fx0), texture.width), x1 = wrap(long(fx0) + 1, texture.width);
+    const int y0 = wrap(long(fy0), texture.height), y1 = wrap(long(fy0) + 1, texture.height);
+    auto texel = [&](int x, int y) {
+      const std::uint8_t* p = &texture.rgb[(std::size_t(y) * texture.width + x) * 3];
+      return Eigen::Vector3f(p[0], p[1], p[2]);
+    };
+    return ((1 - ay) * ((1 - ax) * texel(x0, y0) + ax * texel(x1, y0)) +
+            ay * ((1 - ax) * texel(x0, y1) + ax * texel(x1, y1))) /
+           255.0f;
+  }
+
+  // Simple, view-independent shading: ambient + Lambert from the scene's point lights, no
+  // shadows (consistent colour across views, which is what a registered RGB camera sees of a
+  // matte static scene).
+  Eigen::Vector3f shade(unsigned triangle, float bu, float bv, const Eigen::Vector3f& point,
+                        const Eigen::Vector3f& ray_dir) const {
+    const TriangleMesh& mesh = scene.mesh;
+    Eigen::Vector3f albedo(0.8f, 0.8f, 0.8f);
+    if (!mesh.triangle_material.empty()) {
+      const Material& material = scene.materials[mesh.triangle_material[triangle]];
+      albedo = material.albedo;
+      if (material.texture >= 0 && !mesh.corner_uvs.empty()) {
+        const Eigen::Vector2f uv = (1 - bu - bv) * mesh.corner_uvs[3 * triangle] +
+                                   bu * mesh.corner_uvs[3 * triangle + 1] + bv * mesh.corner_uvs[3 * triangle + 2];
+        albedo = albedo.cwiseProduct(sample_texture(scene.textures[material.texture], uv.x(), uv.y()));
+      }
+    }
+    Eigen::Vector3f normal = triangle_normals[triangle];
+    if (normal.dot(ray_dir) > 0) normal = -normal;
+    constexpr float kAmbient = 0.35f;
+    float diffuse = 0.f;
+    if (scene.lights.empty()) {
+      diffuse = std::abs(normal.dot(ray_dir.normalized()));  // headlight fallback
+    } else {
+      for (const PointLight& light : scene.lights) {
+        const Eigen::Vector3f to_light = light.position - point;
+        const float d2 = to_light.squaredNorm();
+        const float cos_light = std::max(0.f, normal.dot(to_light) / std::sqrt(std::max(d2, 1e-8f)));
+        diffuse += light.intensity * cos_light * 2.f / (1.f + d2 / 4.f);
+      }
+      diffuse = std::min(diffuse / float(scene.lights.size()), 1.2f);
+    }
+    return albedo * (kAmbient + (1.f - kAmbient) * diffuse);
+  }
+};
+
+Renderer::Renderer(const Scene& scene) : impl_(std::make_unique<Impl>(scene)) {
+  scene.check("<scene " + scene.name + ">");
+  impl_->device = rtcNewDevice(nullptr);
+  if (!impl_->device) throw Error("Embree: cannot create a device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
+  impl_->rtc_scene = rtcNewScene(impl_->device);
+  rtcSetSceneBuildQuality(impl_->rtc_scene, RTC_BUILD_QUALITY_HIGH);
+  RTCGeometry geometry = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  const auto& mesh = scene.mesh;
+  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                               3 * sizeof(float), mesh.vertices.size()));
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i)
+    for (int k = 0; k < 3; ++k) vertices[3 * i + k] = mesh.vertices[i][k];
+  auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                                 3 * sizeof(unsigned), mesh.triangles.size()));
+  impl_->triangle_normals.resize(mesh.triangles.size());
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const Eigen::Vector3i& tri = mesh.triangles[t];
+    for (int k = 0; k < 3; ++k) indices[3 * t + k] = static_cast<unsigned>(tri[k]);
+    const Eigen::Vector3f n =
+        (mesh.vertices[tri[1]] - mesh.vertices[tri[0]]).cross(mesh.vertices[tri[2]] - mesh.vertices[tri[0]]);
+    impl_->triangle_normals[t] = n.norm() > 0 ? Eigen::Vector3f(n.normalized()) : Eigen::Vector3f::UnitZ();
+  }
+  rtcCommitGeometry(geometry);
+  rtcAttachGeometry(impl_->rtc_scene, geometry);
+  rtcReleaseGeometry(geometry);
+  rtcCommitScene(impl_->rtc_scene);
+  const RTCError error = rtcGetDeviceError(impl_->device);
+  if (error != RTC_ERROR_NONE) throw Error("Embree: scene build failed (error " + std::to_string(int(error)) + ")");
+}
+
+Renderer::~Renderer() = default;
+
+RenderedView Renderer::allocate(const PinholeIntrinsics& k) {
+  RenderedView view;
+  view.depth = ImageF32(k.width, k.height, 1, 0.f);
+  view.rgb = ImageU8(k.width, k.height, 3, 0);
+  view.incidence_cos = ImageF32(k.width, k.height, 1, 0.f);
+  view.triangle_id = ImageI32(k.width, k.height, 1, -1);
+  return view;
+}
+
+namespace {
+
+// Ray through pixel (u, v) with a direction whose camera-z component is 1, so the hit
+// distance t is the z-depth itself.
+inline void setup_ray(RTCRayHit& ray_hit, const Eigen::Vector3f& origin, const Eigen::Vector3f& direction) {
+  ray_hit.ray.org_x = origin.x();
+  ray_hit.ray.org_y = origin.y();
+  ray_hit.ray.org_z = origin.z();
+  ray_hit.ray.dir_x = direction.x();
+  ray_hit.ray.dir_y = direction.y();
+  ray_hit.ray.dir_z = direction.z();
+  ray_hit.ray.tnear = 0.f;
+  ray_hit.ray.tfar = std::numeric_limits<float>::infinity();
+  ray_hit.ray.time = 0.f;
+  ray_hit.ray.mask = 0xFFFFFFFFu;  // Debian's Embree has ray masks on: mask 0 hits nothing
+  ray_hit.ray.id = 0;
+  ray_hit.ray.flags = 0;
+  ray_hit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  ray_hit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+}
+
+}  // namespace
+
+void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsics& k, int row_begin, int row_end,
+                           RenderedView& out) const {
+  const Eigen::Matrix3f rotation = world_from_cam.linear().cast<float>();
+  const Eigen::Vector3f origin = world_from_cam.translation().cast<float>();
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit ray_hit;
+  for (int y = row_begin; y < row_end; ++y) {
+    for (int x = 0; x < k.width; ++x) {
+      const Eigen::Vector3f dir_cam(float((x - k.cx) / k.fx), float((y - k.cy) / k.fy), 1.f);
+      const Eigen::Vector3f direction = rotation * dir_cam;
+      setup_ray(ray_hit, origin, direction);
+      rtcIntersect1(impl_->rtc_scene, &context, &ray_hit);
+      if (ray_hit.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
+        out.depth.at(x, y) = 0.f;
+        out.incidence_cos.at(x, y) = 0.f;
+        out.triangle_id.at(x, y) = -1;
+        for (int c = 0; c < 3; ++c) out.rgb.at(x, y, c) = 0;
+        continue;
+      }
+      const unsigned triangle = ray_hit.hit.primID;
+      const float t = ray_hit.ray.tfar;
+      out.depth.at(x, y) = t;
+      out.triangle_id.at(x, y) = static_cast<int>(triangle);
+      const Eigen::Vector3f& normal = impl_->triangle_normals[triangle];
+      out.incidence_cos.at(x, y) = std::abs(normal.dot(direction)) / direction.norm();
+      const Eigen::Vector3f colour = impl_->shade(triangle, ray_hit.hit.u, ray_hit.hit.v, origin + t * direction, direction);
+      for (int c = 0; c < 3; ++c)
+        out.rgb.at(x, y, c) = static_cast<std::uint8_t>(std::clamp(colour[c] * 255.f + 0.5f, 0.f, 255.f));
+    }
+  }
+}
+
+RenderedView Renderer::render(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics) const {
+  RenderedView view = allocate(intrinsics);
+  tbb::parallel_for(tbb::blocked_range<int>(0, intrinsics.height, 8), [&](const tbb::blocked_range<int>& rows) {
+    render_rows(world_from_cam, intrinsics, rows.begin(), rows.end(), view);
+  });
+  return view;
+}
+
+RenderedView Renderer::render_equirectangular(const Rigid3d& world_from_pano, const Equirectangular& pano) const {
+  RenderedView view;
+  const int width = pano.width(), height = pano.height;
+  view.depth = ImageF32(width, height, 1, 0.f);
+  view.rgb = ImageU8(width, height, 3, 0);
+  view.incidence_cos = ImageF32(width, height, 1, 0.f);
+  view.triangle_id = ImageI32(width, height, 1, -1);
+  const Eigen::Matrix3d rotation = world_from_pano.linear();
+  const Eigen::Vector3f origin = world_from_pano.translation().cast<float>();
+  tbb::parallel_for(tbb::blocked_range<int>(0, height, 4), [&](const tbb::blocked_range<int>& rows) {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    RTCRayHit ray_hit;
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < width; ++x) {
+        // Unit direction: the hit distance is the radial depth.
+        const Eigen::Vector3f direction = (rotation * pano.direction(x, y)).cast<float>();
+        setup_ray(ray_hit, origin, direction);
+        rtcIntersect1(impl_->rtc_scene, &context, &ray_hit);
+        if (ray_hit.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+        const unsigned triangle = ray_hit.hit.primID;
+        const float t = ray_hit.ray.tfar;
+        view.depth.at(x, y) = t;
+        view.triangle_id.at(x, y) = static_cast<int>(triangle);
+        view.incidence_cos.at(x, y) = std::abs(impl_->triangle_normals[triangle].dot(direction));
+        const Eigen::Vector3f colour = impl_->shade(triangle, ray_hit.hit.u, ray_hit.hit.v, origin + t * direction, direction);
+        for (int c = 0; c < 3; ++c)
+          view.rgb.at(x, y, c) = static_cast<std::uint8_t>(std::clamp(colour[c] * 255.f + 0.5f, 0.f, 255.f));
+      }
+  });
+  return view;
+}
+
+std::size_t Renderer::intersect_only(const Rigid3d& world_from_cam, const PinholeIntrinsics& k, int row_begin,
+                                     int row_end) const {
+  const Eigen::Matrix3f rotation = world_from_cam.linear().cast<float>();
+  const Eigen::Vector3f origin = world_from_cam.translation().cast<float>();
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit ray_hit;
+  std::size_t hits = 0;
+  for (int y = row_begin; y < row_end; ++y)
+    for (int x = 0; x < k.width; ++x) {
+      setup_ray(ray_hit, origin, rotation * Eigen::Vector3f(float((x - k.cx) / k.fx), float((y - k.cy) / k.fy), 1.f));
+      rtcIntersect1(impl_->rtc_scene, &context, &ray_hit);
+      hits += ray_hit.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+    }
+  return hits;
+}
+
+double Renderer::cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, int* triangle) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit ray_hit;
+  setup_ray(ray_hit, origin.cast<float>(), direction.normalized().cast<float>());
+  rtcIntersect1(impl_->rtc_scene, &context, &ray_hit);
+  if (ray_hit.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
+    if (triangle) *triangle = -1;
+    return -1.0;
+  }
+  if (triangle) *triangle = static_cast<int>(ray_hit.hit.primID);
+  return ray_hit.ray.tfar;
+}
+
+}  // namespace panoscan

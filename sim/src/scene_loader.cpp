@@ -1,0 +1,297 @@
+#include "panoscan/sim/scene_loader.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <assimp/Importer.hpp>
+#include <assimp/material.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <nlohmann/json.hpp>
+#include <unistd.h>
+
+#include "panoscan/core/error.h"
+#include "panoscan/core/image_io.h"
+#include "panoscan/scenes/scenes.h"
+
+namespace fs = std::filesystem;
+
+namespace panoscan {
+
+namespace {
+
+std::string builtin_list() {
+  std::string list;
+  for (const std::string& name : scenes::builtin_scene_names()) list += (list.empty() ? "" : ", ") + name;
+  return list;
+}
+
+Texture texture_from_image(const ImageU8& image, const std::string& name) {
+  Texture texture;
+  texture.name = name;
+  texture.width = image.width;
+  texture.height = image.height;
+  texture.rgb = image.data;
+  return texture;
+}
+
+// An embedded texture (glTF/GLB, FBX): compressed bytes go through a temporary file so that one
+// decoder (read_rgb) handles every image; raw BGRA texels are copied directly.
+Texture embedded_texture(const aiTexture& embedded, const std::string& name, const std::string& model_file,
+                         const std::string& field) {
+  if (embedded.mHeight > 0) {
+    Texture texture;
+    texture.name = name;
+    texture.width = static_cast<int>(embedded.mWidth);
+    texture.height = static_cast<int>(embedded.mHeight);
+    texture.rgb.resize(static_cast<std::size_t>(texture.width) * texture.height * 3);
+    for (std::size_t i = 0; i < static_cast<std::size_t>(texture.width) * texture.height; ++i) {
+      texture.rgb[3 * i + 0] = embedded.pcData[i].r;
+      texture.rgb[3 * i + 1] = embedded.pcData[i].g;
+      texture.rgb[3 * i + 2] = embedded.pcData[i].b;
+    }
+    return texture;
+  }
+  static std::atomic<unsigned> counter{0};
+  std::string hint = embedded.achFormatHint;
+  if (hint.empty() || hint.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789") != std::string::npos) hint = "png";
+  const fs::path temp = fs::temp_directory_path() / ("panoscan-embedded-" + std::to_string(::getpid()) + "-" +
+                                                     std::to_string(counter.fetch_add(1)) + "." + hint);
+  {
+    std::ofstream out(temp, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(embedded.pcData), static_cast<std::streamsize>(embedded.mWidth));
+    if (!out) throw make_error(model_file, field, "cannot unpack the embedded texture to " + temp.string());
+  }
+  try {
+    Texture texture = texture_from_image(read_rgb(temp), name);
+    std::error_code ignored;
+    fs::remove(temp, ignored);
+    return texture;
+  } catch (const Error& e) {
+    std::error_code ignored;
+    fs::remove(temp, ignored);
+    throw make_error(model_file, field, std::string("embedded texture is not a readable image: ") + e.what());
+  }
+}
+
+// Reads one number of a JSON array/field as a finite double, or throws naming the field.
+double json_number(const nlohmann::json& value, const std::string& file, const std::string& field) {
+  if (!value.is_number()) throw make_error(file, field, "expected a number");
+  const double number = value.get<double>();
+  if (!std::isfinite(number)) throw make_error(file, field, "not finite");
+  return number;
+}
+
+Eigen::Vector3d json_point(const nlohmann::json& object, const char* key, const std::string& file,
+                           const std::string& field) {
+  if (!object.contains(key)) throw make_error(file, field, "missing");
+  const nlohmann::json& value = object.at(key);
+  if (!value.is_array() || value.size() != 3) throw make_error(file, field, "expected [x, y, z]");
+  return Eigen::Vector3d(json_number(value[0], file, field + "[0]"), json_number(value[1], file, field + "[1]"),
+                         json_number(value[2], file, field + "[2]"));
+}
+
+// Reads scanning positions and lights from the positions file (format in scene_loader.h).
+void read_positions_file(const fs::path& path, Scene& scene) {
+  const std::string file = path.string();
+  std::ifstream in(path);
+  if (!in) throw make_error(file, "", "cannot open the positions file");
+  nlohmann::json document;
+  try {
+    document = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw make_error(file, "", std::string("not valid JSON: ") + e.what());
+  }
+  if (!document.is_object()) throw make_error(file, "", "expected a JSON object");
+  if (!document.contains("format") || document["format"] != "panoscan-positions")
+    throw make_error(file, "format", "expected \"panoscan-positions\"");
+  if (!document.contains("version") || !document["version"].is_number_integer() || document["version"] != 1)
+    throw make_error(file, "version", "expected 1");
+  if (!document.contains("positions") || !document["positions"].is_array() || document["positions"].empty())
+    throw make_error(file, "positions", "expected a non-empty array of scanning positions");
+  const nlohmann::json& positions = document["positions"];
+  for (std::size_t i = 0; i < positions.size(); ++i) {
+    const std::string field = "positions[" + std::to_string(i) + "]";
+    const nlohmann::json& entry = positions[i];
+    if (!entry.is_object()) throw make_error(file, field, "expected an object");
+    ScanPosition position;
+    if (!entry.contains("name") || !entry["name"].is_string() || entry["name"].get<std::string>().empty())
+      throw make_error(file, field + ".name", "missing or not a non-empty string");
+    position.name = entry["name"].get<std::string>();
+    position.floor_point = json_point(entry, "floor_point", file, field + ".floor_point");
+    if (entry.contains("start_heading_deg"))
+      position.start_heading_rad =
+          json_number(entry["start_heading_deg"], file, field + ".start_heading_deg") * 3.14159265358979323846 / 180.0;
+    for (const ScanPosition& earlier : scene.positions)
+      if (earlier.name == position.name) throw make_error(file, field + ".name", "duplicate name '" + position.name + "'");
+    scene.positions.push_back(position);
+  }
+  if (document.contains("lights")) {
+    const nlohmann::json& lights = document["lights"];
+    if (!lights.is_array()) throw make_error(file, "lights", "expected an array");
+    for (std::size_t i = 0; i < lights.size(); ++i) {
+      const std::string field = "lights[" + std::to_string(i) + "]";
+      if (!lights[i].is_object()) throw make_error(file, field, "expected an object");
+      PointLight light;
+      light.position = json_point(lights[i], "position", file, field + ".position").cast<float>();
+      if (lights[i].contains("intensity")) {
+        const double intensity = json_number(lights[i]["intensity"], file, field + ".intensity");
+        if (intensity < 0) throw make_error(file, field + ".intensity", "must not be negative");
+        light.intensity = static_cast<float>(intensity);
+      }
+      scene.lights.push_back(light);
+    }
+  }
+}
+
+}  // namespace
+
+Scene load_scene_file(const fs::path& path) {
+  const std::string file = path.string();
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw make_error(file, "", "scene file not found");
+
+  // Positions first: a model without them cannot be scanned, and this check is cheap.
+  const fs::path folder = path.parent_path();
+  const fs::path beside = folder / (path.stem().string() + ".positions.json");
+  const fs::path shared = folder / "positions.json";
+  const fs::path positions_file = fs::is_regular_file(beside, ec) ? beside : shared;
+  if (!fs::is_regular_file(positions_file, ec))
+    throw make_error(file, "positions", "no positions file: expected " + beside.string() + " (or " + shared.string() + ")");
+
+  Assimp::Importer importer;
+  // Points and lines carry no surface: drop them after triangulation.
+  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+  const unsigned flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices |
+                         aiProcess_SortByPType;
+  const aiScene* imported = importer.ReadFile(file, flags);
+  if (!imported) throw make_error(file, "", std::string("assimp cannot read it: ") + importer.GetErrorString());
+
+  Scene scene;
+  scene.name = path.stem().string();
+  TriangleMesh& mesh = scene.mesh;
+
+  // Materials actually used by a mesh, in assimp's order (OBJ: the order of the MTL file; the
+  // unused default material assimp adds is left out).
+  std::vector<bool> used(imported->mNumMaterials, false);
+  for (unsigned m = 0; m < imported->mNumMeshes; ++m)
+    if (imported->mMeshes[m]->mMaterialIndex < imported->mNumMaterials && imported->mMeshes[m]->mNumFaces > 0)
+      used[imported->mMeshes[m]->mMaterialIndex] = true;
+  std::vector<int> material_of(imported->mNumMaterials, -1);
+  std::map<std::string, int> texture_of_path;
+  for (unsigned m = 0; m < imported->mNumMaterials; ++m) {
+    if (!used[m]) continue;
+    const aiMaterial& source = *imported->mMaterials[m];
+    Material material;
+    aiString name;
+    material.name = source.Get(AI_MATKEY_NAME, name) == AI_SUCCESS ? name.C_Str() : "material_" + std::to_string(m);
+    const std::string field = "material " + material.name;
+    aiColor3D diffuse;
+    if (source.Get(AI_MATKEY_COLOR_DIFFUSE, diffuse) == AI_SUCCESS)
+      material.albedo = Eigen::Vector3f(diffuse.r, diffuse.g, diffuse.b);
+    aiString texture_path;
+    bool has_texture = source.GetTextureCount(aiTextureType_DIFFUSE) > 0 &&
+                       source.GetTexture(aiTextureType_DIFFUSE, 0, &texture_path) == AI_SUCCESS;
+    if (!has_texture)
+      has_texture = source.GetTextureCount(aiTextureType_BASE_COLOR) > 0 &&
+                    source.GetTexture(aiTextureType_BASE_COLOR, 0, &texture_path) == AI_SUCCESS;
+    if (has_texture && texture_path.length > 0) {
+      std::string reference = texture_path.C_Str();
+      const aiTexture* embedded = imported->GetEmbeddedTexture(reference.c_str());
+      std::string key = reference;
+      fs::path resolved;
+      if (!embedded) {
+        std::replace(reference.begin(), reference.end(), '\\', '/');
+        resolved = fs::path(reference);
+        if (resolved.is_relative()) resolved = folder / resolved;
+        key = resolved.lexically_normal().string();
+      }
+      auto found = texture_of_path.find(key);
+      if (found != texture_of_path.end()) {
+        material.texture = found->second;
+      } else {
+        Texture texture;
+        if (embedded) {
+          texture = embedded_texture(*embedded, "embedded_" + std::to_string(texture_of_path.size()), file, field);
+        } else {
+          try {
+            texture = texture_from_image(read_rgb(resolved), resolved.stem().string());
+          } catch (const Error& e) {
+            throw make_error(file, field, std::string("bad texture: ") + e.what());
+          }
+        }
+        scene.textures.push_back(std::move(texture));
+        material.texture = static_cast<int>(scene.textures.size()) - 1;
+        texture_of_path.emplace(key, material.texture);
+      }
+      // A texture without a diffuse colour in the file is shown as it is.
+      if (source.Get(AI_MATKEY_COLOR_DIFFUSE, diffuse) != AI_SUCCESS) material.albedo = Eigen::Vector3f::Ones();
+    }
+    material_of[m] = static_cast<int>(scene.materials.size());
+    scene.materials.push_back(material);
+  }
+
+  // Geometry: node transforms are already applied (PreTransformVertices).
+  for (unsigned m = 0; m < imported->mNumMeshes; ++m) {
+    const aiMesh& source = *imported->mMeshes[m];
+    const int first = static_cast<int>(mesh.vertices.size());
+    for (unsigned v = 0; v < source.mNumVertices; ++v)
+      mesh.vertices.emplace_back(source.mVertices[v].x, source.mVertices[v].y, source.mVertices[v].z);
+    const bool has_uvs = source.HasTextureCoords(0);
+    const int material = source.mMaterialIndex < material_of.size() ? material_of[source.mMaterialIndex] : -1;
+    for (unsigned f = 0; f < source.mNumFaces; ++f) {
+      const aiFace& face = source.mFaces[f];
+      if (face.mNumIndices != 3) continue;
+      mesh.triangles.emplace_back(first + static_cast<int>(face.mIndices[0]), first + static_cast<int>(face.mIndices[1]),
+                                  first + static_cast<int>(face.mIndices[2]));
+      for (int k = 0; k < 3; ++k) {
+        if (has_uvs) {
+          const aiVector3D& uv = source.mTextureCoords[0][face.mIndices[k]];
+          mesh.corner_uvs.emplace_back(uv.x, uv.y);
+        } else {
+          mesh.corner_uvs.emplace_back(0.f, 0.f);
+        }
+      }
+      mesh.triangle_material.push_back(material);
+    }
+  }
+  if (mesh.triangles.empty()) throw make_error(file, "triangles", "the model has no triangles");
+  // Faces without a material (possible in PLY) get a plain grey one.
+  if (std::any_of(mesh.triangle_material.begin(), mesh.triangle_material.end(), [](int m) { return m < 0; })) {
+    Material grey;
+    grey.name = "default_grey";
+    scene.materials.push_back(grey);
+    for (int& m : mesh.triangle_material)
+      if (m < 0) m = static_cast<int>(scene.materials.size()) - 1;
+  }
+
+  read_positions_file(positions_file, scene);
+  if (scene.lights.empty()) {
+    Eigen::Vector3f lo = mesh.vertices[0], hi = mesh.vertices[0];
+    for (const Eigen::Vector3f& v : mesh.vertices) {
+      lo = lo.cwiseMin(v);
+      hi = hi.cwiseMax(v);
+    }
+    PointLight light;
+    light.position = Eigen::Vector3f(0.5f * (lo.x() + hi.x()), 0.5f * (lo.y() + hi.y()), hi.z() - 0.3f);
+    scene.lights.push_back(light);
+  }
+  scene.check(file);
+  return scene;
+}
+
+Scene load_scene(const std::string& name_or_path) {
+  if (scenes::is_builtin_scene(name_or_path)) return scenes::make_builtin_scene(name_or_path);
+  std::error_code ec;
+  if (!fs::exists(fs::path(name_or_path), ec))
+    throw make_error(name_or_path, "scene",
+                     "no such scene file, and not a built-in scene (built-in: " + builtin_list() + ")");
+  return load_scene_file(name_or_path);
+}
+
+}  // namespace panoscan

@@ -1,0 +1,221 @@
+#include "panoscan/sim/simulator.h"
+
+#include <atomic>
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "panoscan/core/error.h"
+#include "panoscan/core/log.h"
+#include "panoscan/core/random.h"
+#include "panoscan/sim/noise.h"
+
+namespace panoscan {
+
+namespace {
+
+nlohmann::json pose_json(const Rigid3d& pose) {
+  const Eigen::Quaterniond q(pose.linear());
+  return {{"translation", {pose.translation().x(), pose.translation().y(), pose.translation().z()}},
+          {"rotation_quaternion_xyzw", {q.x(), q.y(), q.z(), q.w()}}};
+}
+
+nlohmann::json vec_json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+ScanPosition checked_position(const Scene& scene, int position_index) {
+  if (scene.positions.empty())
+    throw make_error("<scene " + scene.name + ">", "positions", "the scene has no scanning positions");
+  if (position_index < 0 || position_index >= int(scene.positions.size()))
+    throw make_error("<scene " + scene.name + ">", "position",
+                     "index " + std::to_string(position_index + 1) + " does not exist (the scene has " +
+                         std::to_string(scene.positions.size()) + " positions)");
+  return scene.positions[position_index];
+}
+
+}  // namespace
+
+Simulator::Simulator(const Scene& scene, int position_index, const SimOptions& options)
+    : scene_(scene),
+      position_(checked_position(scene, position_index)),
+      options_((options.check(), options)),
+      rig_(make_rig(options.rig, options.seed)),
+      motion_(options.motion, position_, options.seed),
+      renderer_(scene) {
+  schedule_ = make_frame_schedule(options_.shutter, options_.output, int(rig_.num_sensors()), motion_.duration(),
+                                  options_.seed);
+}
+
+Rigid3d Simulator::world_from_bracket(double t) const {
+  return motion_.world_from_axis(t) * rig_.axis_from_bracket * motion_.wobble(t);
+}
+
+Rigid3d Simulator::world_from_cam(int sensor, double timestamp) const {
+  return world_from_bracket(timestamp - options_.shutter.start_time_s) * rig_.bracket_from_cam[sensor];
+}
+
+RigInfo Simulator::rig_info() const {
+  RigInfo info;
+  info.reference_sensor = rig_.reference_sensor;
+  info.description = "simulated by panoscan: scene " + scene_.name + ", position " + position_.name;
+  for (std::size_t c = 0; c < rig_.num_sensors(); ++c) {
+    SensorInfo sensor;
+    sensor.name = "cam" + std::to_string(c);
+    sensor.intrinsics = rig_.intrinsics;
+    sensor.depth_scale = 5000.0;
+    sensor.nominal_fps = options_.shutter.fps;
+    sensor.ref_from_cam = rig_.ref_from_cam_calibrated[c];
+    info.sensors.push_back(sensor);
+  }
+  return info;
+}
+
+std::string Simulator::rig_truth_json() const {
+  nlohmann::json j;
+  j["format"] = "panoscan-rig-truth";
+  j["version"] = 1;
+  j["scene"] = scene_.name;
+  j["position"] = {{"name", position_.name},
+                   {"floor_point", vec_json(position_.floor_point)},
+                   {"start_heading_deg", rad2deg(position_.start_heading_rad)}};
+  j["seed"] = options_.seed;
+  j["duration_s"] = motion_.duration();
+  j["axis"] = {{"point", vec_json(motion_.axis_point())},
+               {"direction", vec_json(motion_.axis_direction())},
+               {"world_from_axis_at_start", pose_json(motion_.world_from_axis(0.0))}};
+  j["axis_from_bracket"] = pose_json(rig_.axis_from_bracket);
+  // The paper's T_u in its own convention: the world is the first frame of the reference camera.
+  const auto& reference_frames = schedule_[rig_.reference_sensor];
+  if (!reference_frames.empty()) {
+    const double t0 = reference_frames.front().timestamp;
+    j["axis_in_reference_first_frame"] =
+        pose_json(world_from_cam(rig_.reference_sensor, t0).inverse() *
+                  motion_.world_from_axis(t0 - options_.shutter.start_time_s));
+  }
+  j["reference_sensor"] = rig_.reference_sensor;
+  for (std::size_t c = 0; c < rig_.num_sensors(); ++c) {
+    j["sensors"].push_back({{"name", "cam" + std::to_string(c)},
+                            {"pitch_deg", rad2deg(rig_.pitches_rad[c])},
+                            {"bracket_from_cam", pose_json(rig_.bracket_from_cam[c])},
+                            {"ref_from_cam_true", pose_json(rig_.ref_from_cam_true[c])},
+                            {"ref_from_cam_calibrated", pose_json(rig_.ref_from_cam_calibrated[c])},
+                            {"frames", schedule_[c].size()}});
+  }
+  const auto& m = options_.motion;
+  j["motion"] = {{"turn_deg", m.turn_deg},
+                 {"period_s", m.period_s},
+                 {"ramp_s", m.ramp_s},
+                 {"accel_std_deg_s2", m.accel_std_deg_s2},
+                 {"speed_band_hz", {m.speed_band_low_hz, m.speed_band_high_hz}},
+                 {"wobble_translation_m", m.wobble_translation_m},
+                 {"wobble_rotation_deg", m.wobble_rotation_deg},
+                 {"wobble_band_hz", {m.wobble_band_low_hz, m.wobble_band_high_hz}},
+                 {"axis_tilt_deg", m.axis_tilt_deg},
+                 {"axis_tilt_azimuth_deg", m.axis_tilt_azimuth_deg}};
+  const auto& s = options_.shutter;
+  j["shutter"] = {{"fps", s.fps}, {"jitter_ms", s.jitter_ms}, {"drift_ppm", s.drift_ppm}, {"start_time_s", s.start_time_s}};
+  const auto& n = options_.noise;
+  j["noise"] = {{"preset", to_string(n.preset)},
+                {"min_depth_m", n.min_depth_m},
+                {"max_depth_m", n.max_depth_m},
+                {"max_incidence_deg", n.max_incidence_deg},
+                {"shift_std_px", n.shift_std_px},
+                {"disparity_std", n.effective_disparity_std()},
+                {"ir_speckle", n.ir_speckle},
+                {"ir_band_fraction", n.ir_band_fraction},
+                {"ir_dropout", n.ir_dropout},
+                {"ir_disparity_std", n.ir_disparity_std},
+                {"exposure", n.exposure},
+                {"exposure_std", n.exposure_std},
+                {"white_balance_std", n.white_balance_std},
+                {"colour_noise_std", n.colour_noise_std}};
+  j["output"] = {{"every", options_.output.every},
+                 {"frames", options_.output.max_frames},
+                 {"clean_depth", options_.output.clean_depth}};
+  j["calibration_error"] = {{"rotation_deg", options_.rig.calibration_error_deg},
+                            {"translation_m", options_.rig.calibration_error_m}};
+  return j.dump(2) + "\n";
+}
+
+SimulatedFrame Simulator::render_frame(const FrameTime& frame) const {
+  SimulatedFrame out;
+  out.sensor = frame.sensor;
+  out.index = frame.index;
+  out.timestamp = frame.timestamp;
+  out.world_from_cam = world_from_cam(frame.sensor, frame.timestamp);
+  RenderedView view = renderer_.render(out.world_from_cam, rig_.intrinsics);
+
+  // Noiseless ground-truth depth: the exact z, limited to the sensor's range.
+  out.clean_depth = view.depth;
+  for (float& z : out.clean_depth.data)
+    if (z < options_.noise.min_depth_m || z > options_.noise.max_depth_m) z = 0.f;
+
+  DepthNoiseInput input;
+  input.clean_depth = &view.depth;
+  input.incidence_cos = &view.incidence_cos;
+  input.intrinsics = &rig_.intrinsics;
+  input.sensor = frame.sensor;
+  input.frame = frame.index;
+  for (const auto& [lower, upper] : rig_.vertical_neighbours()) {
+    // The lower camera's top rows and the upper camera's bottom rows see the same band,
+    // lit by both projectors.
+    if (frame.sensor == lower) input.speckle_top = true;
+    if (frame.sensor == upper) input.speckle_bottom = true;
+  }
+  out.depth = apply_depth_noise(input, options_.noise, options_.seed);
+
+  const NoiseOptions& noise = options_.noise;
+  if (noise.exposure || noise.colour_noise_std > 0) {
+    Eigen::Vector3f gain(1.f, 1.f, 1.f);
+    if (noise.exposure) {
+      // Per camera, constant over the scan (auto-exposure locked after start).
+      RandomStream rng(options_.seed, frame.sensor, -1, RandomPurpose::kColour);
+      const double exposure = std::max(0.2, 1.0 + rng.normal() * noise.exposure_std);
+      for (int c = 0; c < 3; ++c) gain[c] = float(exposure * std::max(0.2, 1.0 + rng.normal() * noise.white_balance_std));
+    }
+    RandomStream pixel_rng(options_.seed, frame.sensor, frame.index, RandomPurpose::kColour);
+    for (std::size_t i = 0; i < view.rgb.data.size(); ++i) {
+      float value = view.rgb.data[i] * gain[i % 3];
+      if (noise.colour_noise_std > 0) value += float(pixel_rng.normal() * noise.colour_noise_std);
+      view.rgb.data[i] = static_cast<std::uint8_t>(std::clamp(value + 0.5f, 0.f, 255.f));
+    }
+  }
+  out.rgb = std::move(view.rgb);
+  out.triangle_id = std::move(view.triangle_id);
+  return out;
+}
+
+std::size_t Simulator::write_scan(const std::filesystem::path& scan_dir, bool overwrite) const {
+  const int num_sensors = int(rig_.num_sensors());
+  std::size_t total = 0;
+  for (const auto& frames : schedule_) total += frames.size();
+  if (total == 0) throw make_error(scan_dir.string(), "output.frames", "the schedule selects no frames");
+
+  ScanWriter writer(scan_dir, rig_info(), overwrite, options_.output.png_compression);
+  std::vector<std::vector<StampedPose>> truth(num_sensors);
+  Progress progress("simulating " + scene_.name + " " + position_.name, total);
+  const int threads = options_.threads > 0 ? options_.threads : tbb::task_arena::automatic;
+  tbb::task_arena arena(threads);
+  arena.execute([&] {
+    // Sensors in parallel (each writes its frames in time order), rows in parallel inside.
+    tbb::parallel_for(0, num_sensors, [&](int sensor) {
+      for (const FrameTime& frame : schedule_[sensor]) {
+        const SimulatedFrame simulated = render_frame(frame);
+        writer.write_frame(sensor, frame.timestamp, simulated.rgb, depth_to_png_units(simulated.depth, 5000.0));
+        if (options_.output.clean_depth)
+          writer.write_clean_depth(sensor, frame.timestamp, depth_to_png_units(simulated.clean_depth, 5000.0));
+        truth[sensor].push_back({frame.timestamp, simulated.world_from_cam});
+        progress.advance();
+      }
+    });
+  });
+  progress.finish();
+  for (int sensor = 0; sensor < num_sensors; ++sensor) writer.write_groundtruth_trajectory(sensor, truth[sensor]);
+  writer.write_groundtruth_file("rig_truth.json", rig_truth_json());
+  writer.write_groundtruth_mesh(scene_.mesh);
+  writer.commit();
+  return total;
+}
+
+}  // namespace panoscan

@@ -1,0 +1,96 @@
+// The panoscan program on bad input: non-zero exit, a one-line reason naming the file and the
+// field, and no partial output.
+#include <array>
+#include <cstdio>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "test_util.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct RunResult {
+  int exit_code = 0;
+  std::string output;
+};
+
+RunResult run(const std::string& arguments) {
+  const std::string command = std::string(PANOSCAN_BINARY_DIR) + "/app/panoscan " + arguments + " 2>&1";
+  RunResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  std::array<char, 4096> buffer{};
+  while (fgets(buffer.data(), buffer.size(), pipe)) result.output += buffer.data();
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+void expect_failure_naming(const RunResult& r, const std::vector<std::string>& needles) {
+  EXPECT_NE(r.exit_code, 0) << r.output;
+  for (const auto& needle : needles) EXPECT_NE(r.output.find(needle), std::string::npos) << "missing '" << needle << "' in: " << r.output;
+}
+
+std::size_t count_entries(const fs::path& dir) {
+  std::size_t n = 0;
+  for (auto it = fs::directory_iterator(dir); it != fs::directory_iterator(); ++it) ++n;
+  return n;
+}
+
+}  // namespace
+
+TEST(Cli, HelpOnEverySubcommand) {
+  for (const std::string sub : {"", "sim", "demo", "scene", "scene export"}) {
+    const RunResult r = run(sub + " --help");
+    EXPECT_EQ(r.exit_code, 0) << sub;
+    EXPECT_NE(r.output.find("Usage"), std::string::npos) << sub;
+  }
+}
+
+TEST(Cli, BadInputExitsNonZeroNamingFileAndField) {
+  panoscan::testutil::TempDir tmp("cli");
+  const std::string out = (tmp / "scan").string();
+  const std::string small = " --resolution 32x24 --every 300 --threads 1";
+
+  expect_failure_naming(run("sim --scene " + (tmp / "missing.obj").string() + " --out " + out + small), {"missing.obj"});
+
+  { std::ofstream(tmp / "corrupt.obj") << "v 0 0 0\nv 1 0 0\nf 1 2 9\nthis is not an OBJ file\n"; }
+  expect_failure_naming(run("sim --scene " + (tmp / "corrupt.obj").string() + " --out " + out + small), {"corrupt.obj"});
+
+  { std::ofstream(tmp / "negative.yaml") << "shutter:\n  fps: -30\n"; }
+  expect_failure_naming(run("sim --config " + (tmp / "negative.yaml").string() + " --out " + out + small),
+                        {"negative.yaml", "shutter.fps"});
+
+  { std::ofstream(tmp / "unknown.yaml") << "noise:\n  presett: kinect\n"; }
+  expect_failure_naming(run("sim --config " + (tmp / "unknown.yaml").string() + " --out " + out + small),
+                        {"unknown.yaml", "noise.presett"});
+
+  expect_failure_naming(run("sim --set output.every=0 --out " + out + small.substr(0, small.find(" --every"))),
+                        {"output.every"});
+  expect_failure_naming(run("sim --position 9 --out " + out + small), {"position"});
+  expect_failure_naming(run("sim --noise loud --out " + out + small), {"noise.preset"});
+  expect_failure_naming(run("sim --resolution big --out " + out + small.substr(small.find(" --every"))), {"--resolution"});
+
+  { std::ofstream(tmp / "a_file") << "x"; }
+  expect_failure_naming(run("sim --out " + (tmp / "a_file" / "scan").string() + small), {"a_file"});
+
+  // Every failure above left no output behind (only the inputs written by this test).
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_EQ(count_entries(tmp.path()), 4u);  // corrupt.obj, negative.yaml, unknown.yaml, a_file
+}
+
+TEST(Cli, SimWritesAScanAndRefusesToOverwriteIt) {
+  panoscan::testutil::TempDir tmp("cli-sim");
+  const std::string out = (tmp / "scan").string();
+  const RunResult first = run("sim --scene living_room --position SL-2 --resolution 32x24 --every 300 --out " + out);
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  EXPECT_TRUE(fs::exists(tmp / "scan" / "rig.json"));
+  EXPECT_TRUE(fs::exists(tmp / "scan" / "groundtruth" / "mesh.ply"));
+  const RunResult second = run("sim --scene living_room --position SL-2 --resolution 32x24 --every 300 --out " + out);
+  expect_failure_naming(second, {out, "exists"});
+  const RunResult third =
+      run("sim --scene living_room --position SL-2 --resolution 32x24 --every 300 --overwrite --out " + out);
+  EXPECT_EQ(third.exit_code, 0) << third.output;
+}

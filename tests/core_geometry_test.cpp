@@ -1,0 +1,86 @@
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "panoscan/core/camera.h"
+#include "panoscan/core/geometry.h"
+
+using namespace panoscan;
+
+TEST(Geometry, So3ExpLogRoundTrip) {
+  for (const Eigen::Vector3d& w : {Eigen::Vector3d(0.1, -0.2, 0.3), Eigen::Vector3d(1e-9, 0, 0),
+                                  Eigen::Vector3d(0, 3.0, 0), Eigen::Vector3d(-2.0, 1.0, 0.5)}) {
+    const Eigen::Matrix3d r = so3_exp(w);
+    EXPECT_NEAR((r * r.transpose() - Eigen::Matrix3d::Identity()).norm(), 0.0, 1e-12);
+    EXPECT_NEAR((so3_log(r) - w).norm(), 0.0, 1e-9) << w.transpose();
+    EXPECT_NEAR(rotation_angle(r), w.norm(), 1e-9);
+  }
+}
+
+TEST(Geometry, WrapAngles) {
+  EXPECT_NEAR(wrap_two_pi(-0.5), 2 * M_PI - 0.5, 1e-12);
+  EXPECT_NEAR(wrap_two_pi(7.0), 7.0 - 2 * M_PI, 1e-12);
+  EXPECT_NEAR(wrap_pi(3.5), 3.5 - 2 * M_PI, 1e-12);
+  EXPECT_NEAR(wrap_pi(-0.2), -0.2, 1e-12);
+}
+
+TEST(Geometry, PointTriangleDistanceRegions) {
+  const Eigen::Vector3d a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
+  Eigen::Vector3d closest;
+  // Above the face.
+  EXPECT_NEAR(point_triangle_distance({0.2, 0.2, 0.7}, a, b, c, &closest), 0.7, 1e-15);
+  EXPECT_NEAR((closest - Eigen::Vector3d(0.2, 0.2, 0)).norm(), 0.0, 1e-15);
+  // Vertex regions.
+  EXPECT_NEAR(point_triangle_distance({-1, -1, 0}, a, b, c), std::sqrt(2.0), 1e-15);
+  EXPECT_NEAR(point_triangle_distance({2, 0, 1}, a, b, c), std::sqrt(2.0), 1e-15);
+  // Edge region (hypotenuse): point (1,1,0) is sqrt(2)/2 from the edge b-c.
+  EXPECT_NEAR(point_triangle_distance({1, 1, 0}, a, b, c), std::sqrt(0.5), 1e-15);
+  // Edge a-b from below.
+  EXPECT_NEAR(point_triangle_distance({0.5, -0.3, 0.4}, a, b, c), 0.5, 1e-15);
+  // Degenerate triangle (collinear points).
+  EXPECT_NEAR(point_triangle_distance({0.5, 1, 0}, a, b, Eigen::Vector3d(2, 0, 0)), 1.0, 1e-15);
+}
+
+TEST(Geometry, PointTriangleDistanceMatchesDenseSampling) {
+  const Eigen::Vector3d a(0.3, -0.2, 0.1), b(1.2, 0.4, -0.3), c(-0.1, 0.9, 0.5);
+  for (int i = 0; i < 20; ++i) {
+    const Eigen::Vector3d p = Eigen::Vector3d::Random() * 1.5;
+    double best = 1e9;
+    for (int s = 0; s <= 400; ++s)
+      for (int t = 0; s + t <= 400; ++t) {
+        const Eigen::Vector3d q = a + (b - a) * (s / 400.0) + (c - a) * (t / 400.0);
+        best = std::min(best, (p - q).norm());
+      }
+    EXPECT_LE(point_triangle_distance(p, a, b, c), best + 1e-12);
+    EXPECT_NEAR(point_triangle_distance(p, a, b, c), best, 5e-3);
+  }
+}
+
+TEST(Camera, PinholeRoundTripAndFieldOfView) {
+  const PinholeIntrinsics k = PinholeIntrinsics::primesense(640, 480);
+  EXPECT_NEAR(rad2deg(k.fov_x()), 58.6, 0.2);
+  EXPECT_NEAR(rad2deg(k.fov_y()), 45.6, 0.2);
+  const Eigen::Vector3d p = k.backproject(100.25, 400.5, 2.5);
+  const Eigen::Vector2d uv = k.project(p);
+  EXPECT_NEAR(uv.x(), 100.25, 1e-12);
+  EXPECT_NEAR(uv.y(), 400.5, 1e-12);
+  EXPECT_NEAR(p.z(), 2.5, 1e-15);
+  // The principal point sees the optical axis.
+  EXPECT_NEAR(k.backproject(k.cx, k.cy, 1.0).head<2>().norm(), 0.0, 1e-15);
+  const PinholeIntrinsics small = PinholeIntrinsics::primesense(160, 120);
+  EXPECT_NEAR(small.fov_x(), k.fov_x(), 1e-12);
+}
+
+TEST(Camera, EquirectangularRoundTrip) {
+  const Equirectangular pano{256};
+  EXPECT_EQ(pano.width(), 512);
+  for (double u : {0.0, 10.3, 255.5, 511.0})
+    for (double v : {0.0, 64.2, 128.0, 255.0}) {
+      const Eigen::Vector2d back = pano.pixel(pano.direction(u, v));
+      EXPECT_NEAR(back.x(), u, 1e-9);
+      EXPECT_NEAR(back.y(), v, 1e-9);
+    }
+  // Row 0 looks up, the middle row looks at the horizon.
+  EXPECT_GT(pano.direction(10, 0).z(), 0.99);
+  EXPECT_NEAR(pano.direction(10, 127.5).z(), 0.0, 1e-12);
+}

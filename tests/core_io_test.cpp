@@ -1,0 +1,406 @@
+// Tests of the image files (PNG 8/16-bit, EXR) and of TUM trajectory files: bit-exact round
+// trips, and bad input rejected with an Error that names the file (and the line or field).
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "panoscan/core/error.h"
+#include "panoscan/core/geometry.h"
+#include "panoscan/core/image_io.h"
+#include "panoscan/core/trajectory.h"
+
+namespace panoscan {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+class IoTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    static std::atomic<int> counter{0};
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() / ("panoscan_io_test_" + std::string(info->name()) + "_" +
+                                        std::to_string(::getpid()) + "_" + std::to_string(counter++));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ignored;
+    fs::remove_all(dir_, ignored);
+  }
+  fs::path write_text(const std::string& name, const std::string& text) {
+    const fs::path path = dir_ / name;
+    std::ofstream(path, std::ios::binary) << text;
+    return path;
+  }
+  // Names of everything in the test directory (to check that no temporary files are left).
+  std::vector<std::string> listing() const {
+    std::vector<std::string> names;
+    for (const auto& entry : fs::directory_iterator(dir_)) names.push_back(entry.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  }
+  fs::path dir_;
+};
+
+template <typename Action>
+std::string error_of(Action&& action) {
+  try {
+    action();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected panoscan::Error to be thrown";
+  return "";
+}
+
+// An image whose every sample differs from its neighbours, so swapped channels or rows show.
+ImageU8 make_rgb(int width, int height) {
+  ImageU8 image(width, height, 3);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      for (int c = 0; c < 3; ++c) image.at(x, y, c) = static_cast<std::uint8_t>((x * 37 + y * 91 + c * 53) % 256);
+  return image;
+}
+
+ImageU16 make_depth_units(int width, int height) {
+  ImageU16 image(width, height, 1);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) image.at(x, y) = static_cast<std::uint16_t>((x * 7919 + y * 104729) % 65536);
+  image.at(0, 0) = 0;
+  image.at(1, 0) = 65535;
+  image.at(2, 0) = 256;  // high byte only: catches byte-order mistakes
+  image.at(3, 0) = 1;
+  return image;
+}
+
+// ---------------------------------------------------------------- PNG
+
+TEST_F(IoTest, Png8BitRgbRoundTripIsExact) {
+  const ImageU8 image = make_rgb(8, 6);
+  const fs::path path = dir_ / "colour.png";
+  write_png(path, image);
+  const ImageU8 back = read_rgb(path);
+  EXPECT_EQ(back.width, 8);
+  EXPECT_EQ(back.height, 6);
+  EXPECT_EQ(back.channels, 3);
+  EXPECT_EQ(back.data, image.data);
+  EXPECT_EQ(listing(), std::vector<std::string>{"colour.png"});  // no temporary file left behind
+}
+
+TEST_F(IoTest, PngCompressionLevelsGiveTheSameImage) {
+  const ImageU8 image = make_rgb(13, 7);
+  for (int level : {0, 9}) {
+    const fs::path path = dir_ / ("level" + std::to_string(level) + ".png");
+    write_png(path, image, level);
+    EXPECT_EQ(read_rgb(path).data, image.data) << "compression " << level;
+  }
+}
+
+TEST_F(IoTest, Png8BitGreyIsReadAsRgb) {
+  ImageU8 grey(5, 4, 1);
+  for (std::size_t i = 0; i < grey.data.size(); ++i) grey.data[i] = static_cast<std::uint8_t>(i * 11);
+  const fs::path path = dir_ / "grey.png";
+  write_png(path, grey);
+  const ImageU8 back = read_rgb(path);
+  ASSERT_EQ(back.channels, 3);
+  ASSERT_EQ(back.width, 5);
+  ASSERT_EQ(back.height, 4);
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 5; ++x)
+      for (int c = 0; c < 3; ++c) EXPECT_EQ(back.at(x, y, c), grey.at(x, y));
+}
+
+TEST_F(IoTest, Png16BitRoundTripIsExact) {
+  const ImageU16 image = make_depth_units(8, 6);
+  const fs::path path = dir_ / "depth.png";
+  write_png16(path, image);
+  const ImageU16 back = read_png16(path);
+  EXPECT_EQ(back.width, 8);
+  EXPECT_EQ(back.height, 6);
+  EXPECT_EQ(back.channels, 1);
+  EXPECT_EQ(back.data, image.data);
+}
+
+TEST_F(IoTest, WritingOverAnExistingPngReplacesIt) {
+  const fs::path path = dir_ / "depth.png";
+  write_png16(path, ImageU16(4, 3, 1, 7));
+  const ImageU16 second = make_depth_units(6, 5);
+  write_png16(path, second);
+  EXPECT_EQ(read_png16(path).data, second.data);
+}
+
+TEST_F(IoTest, ReadingAMissingImageNamesTheFile) {
+  const fs::path path = dir_ / "missing.png";
+  std::string message = error_of([&] { read_rgb(path); });
+  EXPECT_THAT(message, HasSubstr(path.string()));
+  message = error_of([&] { read_png16(path); });
+  EXPECT_THAT(message, HasSubstr(path.string()));
+}
+
+TEST_F(IoTest, ATextFileNamedPngIsRejected) {
+  const fs::path path = write_text("notes.png", "this is not an image\n");
+  std::string message = error_of([&] { read_rgb(path); });
+  EXPECT_THAT(message, HasSubstr(path.string()));
+  message = error_of([&] { read_png16(path); });
+  EXPECT_THAT(message, HasSubstr(path.string()));
+}
+
+TEST_F(IoTest, ATruncatedPngIsRejected) {
+  const fs::path good = dir_ / "good.png";
+  write_png(good, make_rgb(32, 32));
+  std::ifstream in(good, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const fs::path truncated = write_text("truncated.png", bytes.substr(0, bytes.size() / 2));
+  const std::string message = error_of([&] { read_rgb(truncated); });
+  EXPECT_THAT(message, HasSubstr(truncated.string()));
+}
+
+TEST_F(IoTest, An8BitPngIsNotADepthImage) {
+  const fs::path path = dir_ / "colour.png";
+  write_png(path, make_rgb(8, 6));
+  std::string message = error_of([&] { read_png16(path); });
+  EXPECT_THAT(message, HasSubstr(path.string()));
+  EXPECT_THAT(message, HasSubstr("16-bit"));
+
+  // Single-channel 8-bit is not 16-bit either.
+  const fs::path grey = dir_ / "grey.png";
+  write_png(grey, ImageU8(8, 6, 1, 100));
+  message = error_of([&] { read_png16(grey); });
+  EXPECT_THAT(message, HasSubstr(grey.string()));
+}
+
+TEST_F(IoTest, WritingIntoAnUnwritableFolderFails) {
+  // A path "below" a regular file can never be created.
+  const fs::path blocker = write_text("blocker", "a regular file");
+  const fs::path path = blocker / "sub" / "image.png";
+  std::string message = error_of([&] { write_png(path, make_rgb(4, 4)); });
+  EXPECT_THAT(message, HasSubstr(path.string()));
+  message = error_of([&] { write_png16(path, make_depth_units(4, 4)); });
+  EXPECT_THAT(message, HasSubstr(path.string()));
+}
+
+// ---------------------------------------------------------------- EXR
+
+ImageF32 make_float_image(int width, int height, int channels) {
+  ImageF32 image(width, height, channels);
+  for (std::size_t i = 0; i < image.data.size(); ++i) {
+    // Values that do not survive a trip through half floats or 8 bits.
+    image.data[i] = static_cast<float>(std::sin(0.37 * double(i)) * 1234.5678 + 1e-3 * double(i));
+  }
+  image.data[0] = 0.0f;
+  image.data[1] = -7.25e-6f;
+  image.data[2] = 3.0e20f;
+  return image;
+}
+
+TEST_F(IoTest, ExrMultiChannelRoundTripIsExact) {
+  const ImageF32 image = make_float_image(8, 6, 3);
+  const fs::path path = dir_ / "colour.exr";
+  write_exr(path, image, {"R", "G", "B"});
+  const ImageF32 back = read_exr(path, {"R", "G", "B"});
+  EXPECT_EQ(back.width, 8);
+  EXPECT_EQ(back.height, 6);
+  EXPECT_EQ(back.channels, 3);
+  EXPECT_EQ(back.data, image.data);
+
+  // One channel alone, and channels in another order.
+  const ImageF32 green = read_exr(path, {"G"});
+  ASSERT_EQ(green.channels, 1);
+  const ImageF32 swapped = read_exr(path, {"B", "R"});
+  ASSERT_EQ(swapped.channels, 2);
+  for (int y = 0; y < 6; ++y) {
+    for (int x = 0; x < 8; ++x) {
+      EXPECT_EQ(green.at(x, y), image.at(x, y, 1));
+      EXPECT_EQ(swapped.at(x, y, 0), image.at(x, y, 2));
+      EXPECT_EQ(swapped.at(x, y, 1), image.at(x, y, 0));
+    }
+  }
+  EXPECT_EQ(listing(), std::vector<std::string>{"colour.exr"});
+}
+
+TEST_F(IoTest, ExrSingleChannelRoundTripIsExact) {
+  const ImageF32 image = make_float_image(7, 5, 1);
+  const fs::path path = dir_ / "depth.exr";
+  write_exr(path, image, {"Z"});
+  EXPECT_EQ(read_exr(path, {"Z"}).data, image.data);
+}
+
+TEST_F(IoTest, ExrMissingChannelIsNamed) {
+  const fs::path path = dir_ / "depth.exr";
+  write_exr(path, make_float_image(4, 3, 1), {"Z"});
+  const std::string message = error_of([&] { read_exr(path, {"R"}); });
+  EXPECT_THAT(message, HasSubstr(path.string()));
+  EXPECT_THAT(message, HasSubstr("R"));
+}
+
+TEST_F(IoTest, ExrBadInputIsRejected) {
+  std::string message = error_of([&] { read_exr(dir_ / "missing.exr", {"Z"}); });
+  EXPECT_THAT(message, HasSubstr((dir_ / "missing.exr").string()));
+  const fs::path text = write_text("notes.exr", "not an EXR file");
+  message = error_of([&] { read_exr(text, {"Z"}); });
+  EXPECT_THAT(message, HasSubstr(text.string()));
+  // Channel names must match the image's channel count.
+  message = error_of([&] { write_exr(dir_ / "bad.exr", make_float_image(4, 3, 2), {"Z"}); });
+  EXPECT_THAT(message, HasSubstr((dir_ / "bad.exr").string()));
+}
+
+// ---------------------------------------------------------------- TUM trajectories
+
+std::vector<StampedPose> make_trajectory() {
+  std::vector<StampedPose> poses;
+  for (int i = 0; i < 20; ++i) {
+    StampedPose pose;
+    pose.timestamp = 1.0 + i / 30.0;
+    const Eigen::Vector3d axis = Eigen::Vector3d(0.3, -0.5 + 0.05 * i, 1.0).normalized();
+    pose.world_from_cam = make_rigid(Eigen::Quaterniond(Eigen::AngleAxisd(0.31 * i - 2.5, axis)),
+                                     Eigen::Vector3d(0.123456789 * i, -2.0 + 0.01 * i, 1.5 - 1e-4 * i));
+    poses.push_back(pose);
+  }
+  return poses;
+}
+
+TEST_F(IoTest, FormatTimestampUsesSixDecimals) {
+  EXPECT_EQ(format_timestamp(1.5), "1.500000");
+  EXPECT_EQ(format_timestamp(1.0 / 30.0), "0.033333");
+  EXPECT_EQ(format_timestamp(0.0), "0.000000");
+  EXPECT_EQ(format_timestamp(1234567.0000004), "1234567.000000");
+}
+
+TEST_F(IoTest, TrajectoryRoundTrip) {
+  const std::vector<StampedPose> poses = make_trajectory();
+  const fs::path path = dir_ / "traj.txt";
+  write_tum_trajectory(path, poses);
+  EXPECT_EQ(listing(), std::vector<std::string>{"traj.txt"});
+  const std::vector<StampedPose> back = read_tum_trajectory(path);
+  ASSERT_EQ(back.size(), poses.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    // Timestamps are kept to 6 decimals (the canonical text), poses to 9.
+    EXPECT_NEAR(back[i].timestamp, poses[i].timestamp, 5e-7 + 1e-12);
+    EXPECT_EQ(format_timestamp(back[i].timestamp), format_timestamp(poses[i].timestamp));
+    EXPECT_LT((back[i].world_from_cam.translation() - poses[i].world_from_cam.translation()).cwiseAbs().maxCoeff(), 1e-9);
+    // 9-decimal quaternion components re-normalised: the rotation matrix agrees to a few 1e-9.
+    EXPECT_LT((back[i].world_from_cam.linear() - poses[i].world_from_cam.linear()).cwiseAbs().maxCoeff(), 3e-9);
+  }
+}
+
+TEST_F(IoTest, TrajectoryExactValuesSurvive) {
+  // Timestamps with 6 decimals and positions with 9 decimals are reproduced exactly.
+  const fs::path path = write_text("exact.txt", "1.033333 0.123456789 -1.5 2.000000001 0 0 0 1\n");
+  const std::vector<StampedPose> poses = read_tum_trajectory(path);
+  ASSERT_EQ(poses.size(), 1u);
+  EXPECT_EQ(poses[0].timestamp, 1.033333);
+  EXPECT_EQ(poses[0].world_from_cam.translation(), Eigen::Vector3d(0.123456789, -1.5, 2.000000001));
+  EXPECT_TRUE(poses[0].world_from_cam.linear().isIdentity(0.0));
+  const fs::path written = dir_ / "written.txt";
+  write_tum_trajectory(written, poses);
+  const std::vector<StampedPose> back = read_tum_trajectory(written);
+  EXPECT_EQ(back[0].timestamp, 1.033333);
+  EXPECT_EQ(back[0].world_from_cam.translation(), poses[0].world_from_cam.translation());
+}
+
+TEST_F(IoTest, TrajectoryCommentsBlankLinesAndUnnormalisedQuaternions) {
+  const fs::path path = write_text("comments.txt",
+                                   "# TUM trajectory\n"
+                                   "\n"
+                                   "   # indented comment\n"
+                                   "0.5 1 2 3 0 0 0 2\r\n"  // Windows line end, quaternion of norm 2
+                                   "\t\n"
+                                   "0.6 1 2 3 0 0 1 1\n");
+  const std::vector<StampedPose> poses = read_tum_trajectory(path);
+  ASSERT_EQ(poses.size(), 2u);
+  EXPECT_EQ(poses[0].timestamp, 0.5);
+  EXPECT_TRUE(poses[0].world_from_cam.linear().isIdentity(1e-15));
+  EXPECT_EQ(poses[0].world_from_cam.translation(), Eigen::Vector3d(1, 2, 3));
+  // (0, 0, 1, 1) normalised is a rotation by 90 degrees about z.
+  EXPECT_NEAR(rotation_angle(poses[1].world_from_cam.linear()), M_PI / 2, 1e-12);
+  EXPECT_NEAR((poses[1].world_from_cam.linear() * Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitY()).norm(), 0, 1e-12);
+}
+
+TEST_F(IoTest, EmptyTrajectoryFileHasNoPoses) {
+  const fs::path path = write_text("empty.txt", "# nothing yet\n");
+  EXPECT_TRUE(read_tum_trajectory(path).empty());
+}
+
+TEST_F(IoTest, TrajectoryBadLinesNameFileAndLine) {
+  struct Case {
+    std::string line;
+    std::string expected;
+  };
+  const std::vector<Case> cases = {
+      {"1.1 1 2 3 0 0 0", "expected 8 numbers"},
+      {"1.1 1 2 3 0 0 0 1 9", "expected 8 numbers"},
+      {"1.1 1 2 x 0 0 0 1", "'x'"},
+      {"1.1 1 2 3 0 0 0 1e999", "'1e999'"},
+      {"1.1 nan 2 3 0 0 0 1", "'nan'"},
+      {"1.1 1 2 3 0 0 0 0", "zero length"},
+      {"1.1 1 2 3,0 0 0 1", "expected 8 numbers"},
+  };
+  for (const Case& c : cases) {
+    const fs::path path = write_text("bad.txt", "# header\n1.0 0 0 0 0 0 0 1\n" + c.line + "\n");
+    const std::string message = error_of([&] { read_tum_trajectory(path); });
+    EXPECT_THAT(message, HasSubstr(path.string())) << c.line;
+    EXPECT_THAT(message, HasSubstr("line 3")) << c.line;
+    EXPECT_THAT(message, HasSubstr(c.expected)) << c.line;
+  }
+}
+
+TEST_F(IoTest, TrajectoryRepeatedTimestampIsRejected) {
+  const fs::path path = write_text("dup.txt", "1.0 0 0 0 0 0 0 1\n1.1 0 0 0 0 0 0 1\n1.1 0 0 0 0 0 0 1\n");
+  const std::string message = error_of([&] { read_tum_trajectory(path); });
+  EXPECT_THAT(message, HasSubstr(path.string()));
+  EXPECT_THAT(message, HasSubstr("line 3"));
+  EXPECT_THAT(message, HasSubstr("repeats"));
+}
+
+TEST_F(IoTest, TrajectoryDecreasingTimestampIsRejected) {
+  const fs::path path = write_text("back.txt", "# c\n2.0 0 0 0 0 0 0 1\n1.5 0 0 0 0 0 0 1\n");
+  const std::string message = error_of([&] { read_tum_trajectory(path); });
+  EXPECT_THAT(message, HasSubstr(path.string()));
+  EXPECT_THAT(message, HasSubstr("line 3"));
+  EXPECT_THAT(message, HasSubstr("is before"));
+}
+
+TEST_F(IoTest, MissingTrajectoryFileIsNamed) {
+  const fs::path path = dir_ / "nope.txt";
+  const std::string message = error_of([&] { read_tum_trajectory(path); });
+  EXPECT_THAT(message, HasSubstr(path.string()));
+}
+
+TEST_F(IoTest, TrajectoryWriterRefusesWhatTheReaderWouldReject) {
+  std::vector<StampedPose> poses(2);
+  poses[0].timestamp = 1.0;
+  poses[1].timestamp = 1.0000001;  // the same timestamp once written with 6 decimals
+  const fs::path path = dir_ / "out.txt";
+  std::string message = error_of([&] { write_tum_trajectory(path, poses); });
+  EXPECT_THAT(message, HasSubstr(path.string()));
+  EXPECT_THAT(message, HasSubstr("pose 1"));
+
+  poses[1].timestamp = 2.0;
+  poses[1].world_from_cam.translation().x() = std::numeric_limits<double>::quiet_NaN();
+  message = error_of([&] { write_tum_trajectory(path, poses); });
+  EXPECT_THAT(message, HasSubstr("pose 1"));
+  EXPECT_FALSE(fs::exists(path));  // nothing half-written
+  EXPECT_TRUE(listing().empty());
+}
+
+TEST_F(IoTest, TrajectoryWriteIntoAnUnwritableFolderFails) {
+  const fs::path blocker = write_text("blocker", "x");
+  const fs::path path = blocker / "traj.txt";
+  const std::string message = error_of([&] { write_tum_trajectory(path, make_trajectory()); });
+  EXPECT_THAT(message, HasSubstr(path.string()));
+}
+
+}  // namespace
+}  // namespace panoscan

@@ -1,0 +1,50 @@
+#include <cmath>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "panoscan/core/random.h"
+
+using namespace panoscan;
+
+TEST(Random, SameKeySameSequence) {
+  RandomStream a(7, 1, 2, RandomPurpose::kDepthShift, 3), b(7, 1, 2, RandomPurpose::kDepthShift, 3);
+  for (int i = 0; i < 1000; ++i) ASSERT_EQ(a.next_u64(), b.next_u64());
+}
+
+TEST(Random, EveryKeyPartChangesTheSequence) {
+  const std::uint64_t base = RandomStream(7, 1, 2, RandomPurpose::kDepthShift, 3).next_u64();
+  std::set<std::uint64_t> seen{base};
+  seen.insert(RandomStream(8, 1, 2, RandomPurpose::kDepthShift, 3).next_u64());
+  seen.insert(RandomStream(7, 2, 2, RandomPurpose::kDepthShift, 3).next_u64());
+  seen.insert(RandomStream(7, 1, 3, RandomPurpose::kDepthShift, 3).next_u64());
+  seen.insert(RandomStream(7, 1, 2, RandomPurpose::kDepthDisparity, 3).next_u64());
+  seen.insert(RandomStream(7, 1, 2, RandomPurpose::kDepthShift, 4).next_u64());
+  EXPECT_EQ(seen.size(), 6u);
+}
+
+TEST(Random, UniformAndNormalMoments) {
+  RandomStream rng(42, 0, 0, RandomPurpose::kGeneric);
+  const int n = 200000;
+  double sum = 0, sum2 = 0, usum = 0;
+  double umin = 1, umax = 0;
+  for (int i = 0; i < n; ++i) {
+    const double x = rng.normal();
+    sum += x;
+    sum2 += x * x;
+    const double u = rng.uniform();
+    usum += u;
+    umin = std::min(umin, u);
+    umax = std::max(umax, u);
+  }
+  EXPECT_NEAR(sum / n, 0.0, 0.01);
+  EXPECT_NEAR(std::sqrt(sum2 / n), 1.0, 0.01);
+  EXPECT_NEAR(usum / n, 0.5, 0.005);
+  EXPECT_GE(umin, 0.0);
+  EXPECT_LT(umax, 1.0);
+  for (int i = 0; i < 1000; ++i) {
+    const int k = rng.uniform_int(-3, 5);
+    ASSERT_GE(k, -3);
+    ASSERT_LE(k, 5);
+  }
+}

@@ -1,0 +1,106 @@
+// End to end on the built-in scenes: a small scan written to disk and read back, exact ground
+// truth against the exported mesh, and enough ORB features for tracking.
+#include <gtest/gtest.h>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "panoscan/core/image_io.h"
+#include "panoscan/core/mesh_io.h"
+#include "panoscan/core/random.h"
+#include "panoscan/core/scan.h"
+#include "panoscan/scenes/scenes.h"
+#include "panoscan/sim/simulator.h"
+#include "test_util.h"
+
+using namespace panoscan;
+
+TEST(SimEndToEnd, OfficeScanOnDiskHasExactGroundTruth) {
+  const Scene scene = scenes::make_builtin_scene("office");
+  SimOptions options;
+  options.rig.width = 160;
+  options.rig.height = 120;
+  options.output.every = 30;  // ~33 frames per camera over the full turn
+  options.output.clean_depth = true;
+  options.seed = 3;
+  testutil::TempDir tmp("e2e");
+  const Simulator sim(scene, 0, options);
+  const std::size_t written = sim.write_scan(tmp / "SO-1", false);
+  EXPECT_GT(written, 90u);
+
+  const ScanIndex scan = read_scan_index(tmp / "SO-1");
+  const TriangleMesh mesh = read_ply_mesh(tmp / "SO-1" / "groundtruth" / "mesh.ply");
+  ASSERT_EQ(mesh.triangles.size(), scene.mesh.triangles.size());
+  RandomStream rng(1, 0, 0, RandomPurpose::kGeneric);
+  for (int c = 0; c < 3; ++c) {
+    const auto truth = read_groundtruth_trajectory(tmp / "SO-1", c);
+    ASSERT_EQ(truth.size(), scan.frames[c].size());
+    const std::size_t f = truth.size() / 2;
+    const RgbdFrame frame = load_frame(scan, c, f);
+    const PinholeIntrinsics& k = scan.rig.sensors[c].intrinsics;
+    const ImageF32 clean = depth_from_png_units(
+        read_png16(tmp / "SO-1" / "groundtruth" / "depth_clean" / scan.rig.sensors[c].name /
+                   (format_timestamp(truth[f].timestamp) + ".png")),
+        5000.0);
+    // Brute force over all triangles for a random sample of pixels: an independent check of
+    // the renderer, the poses and the file formats.
+    int checked = 0;
+    double noisy_error_sum = 0;
+    int noisy_count = 0;
+    for (int trial = 0; trial < 400 && checked < 40; ++trial) {
+      const int x = rng.uniform_int(0, k.width - 1), y = rng.uniform_int(0, k.height - 1);
+      const float z = clean.at(x, y);
+      if (z <= 0) continue;
+      const Eigen::Vector3d p = truth[f].world_from_cam * k.backproject(x, y, z);
+      double best = 1e9;
+      for (const auto& tri : mesh.triangles)
+        best = std::min(best, point_triangle_distance(p, mesh.vertices[tri[0]].cast<double>(),
+                                                      mesh.vertices[tri[1]].cast<double>(),
+                                                      mesh.vertices[tri[2]].cast<double>()));
+      ASSERT_LT(best, 1e-4 * k.backproject(x, y, 1.0).norm() + 1e-6) << "camera " << c << " pixel " << x << "," << y;
+      ++checked;
+      if (frame.depth.at(x, y) > 0) {
+        noisy_error_sum += std::abs(frame.depth.at(x, y) - z);
+        ++noisy_count;
+      }
+    }
+    EXPECT_GE(checked, 30);
+    // The stored depth is the noisy one: it differs from the truth, by millimetres.
+    ASSERT_GT(noisy_count, 10);
+    EXPECT_GT(noisy_error_sum / noisy_count, 1e-4);
+    EXPECT_LT(noisy_error_sum / noisy_count, 0.05);
+  }
+}
+
+TEST(SimEndToEnd, BuiltinScenesGiveEnoughOrbFeaturesFromTheScanningPositions) {
+  // The tracking front end needs texture: on average >= 300 ORB keypoints (OpenCV defaults)
+  // per 640x480 view, over views all around each scanning position and all three cameras.
+  cv::Ptr<cv::ORB> orb = cv::ORB::create();
+  for (const std::string& name : scenes::builtin_scene_names()) {
+    const Scene scene = scenes::make_builtin_scene(name);
+    SimOptions options;
+    options.noise.preset = NoisePreset::kNone;
+    double total = 0;
+    int views = 0, poorest = 1 << 30;
+    for (std::size_t position = 0; position < scene.positions.size(); ++position) {
+      const Simulator sim(scene, int(position), options);
+      for (int c = 0; c < 3; ++c) {
+        const auto& frames = sim.schedule()[c];
+        for (int step = 0; step < 8; ++step) {
+          const SimulatedFrame frame = sim.render_frame(frames[step * frames.size() / 8]);
+          cv::Mat rgb(frame.rgb.height, frame.rgb.width, CV_8UC3, const_cast<std::uint8_t*>(frame.rgb.data.data()));
+          cv::Mat grey;
+          cv::cvtColor(rgb, grey, cv::COLOR_RGB2GRAY);
+          std::vector<cv::KeyPoint> keypoints;
+          orb->detect(grey, keypoints);
+          total += keypoints.size();
+          poorest = std::min<int>(poorest, int(keypoints.size()));
+          ++views;
+        }
+      }
+    }
+    const double mean = total / views;
+    RecordProperty(name + "_mean_orb_keypoints", std::to_string(mean));
+    std::printf("%s: mean %.0f ORB keypoints per view over %d views (poorest %d)\n", name.c_str(), mean, views, poorest);
+    EXPECT_GE(mean, 300.0) << name;
+  }
+}
