@@ -23,6 +23,27 @@ TEST(Random, EveryKeyPartChangesTheSequence) {
   EXPECT_EQ(seen.size(), 6u);
 }
 
+TEST(Random, NormalHasTheGaussianShapeIncludingTheTails) {
+  // CDF at a few points and the tail masses, which a sampler with a wrong wedge or tail misses.
+  RandomStream rng(3, 0, 0, RandomPurpose::kGeneric);
+  const int n = 1000000;
+  int below[5] = {0, 0, 0, 0, 0};
+  const double points[5] = {-2.0, -1.0, 0.0, 0.5, 1.5};
+  int beyond2 = 0, beyond3 = 0, beyond4 = 0;
+  for (int i = 0; i < n; ++i) {
+    const double x = rng.normal();
+    for (int k = 0; k < 5; ++k) below[k] += x < points[k];
+    beyond2 += std::abs(x) > 2;
+    beyond3 += std::abs(x) > 3;
+    beyond4 += std::abs(x) > 4;
+  }
+  const double cdf[5] = {0.0227501, 0.1586553, 0.5, 0.6914625, 0.9331928};
+  for (int k = 0; k < 5; ++k) EXPECT_NEAR(double(below[k]) / n, cdf[k], 0.0015) << "at " << points[k];
+  EXPECT_NEAR(double(beyond2) / n, 0.0455003, 0.0008);
+  EXPECT_NEAR(double(beyond3) / n, 0.0026998, 0.0002);
+  EXPECT_NEAR(double(beyond4) / n, 6.334e-5, 3e-5);
+}
+
 TEST(Random, UniformAndNormalMoments) {
   RandomStream rng(42, 0, 0, RandomPurpose::kGeneric);
   const int n = 200000;

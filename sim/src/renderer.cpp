@@ -17,6 +17,12 @@ struct Renderer::Impl {
   RTCDevice device = nullptr;
   RTCScene rtc_scene = nullptr;
   std::vector<Eigen::Vector3f> triangle_normals;  // unit geometric normals
+  // Mip pyramids of the textures (level 0 = the texture), and per triangle the texture's
+  // resolution on the surface (texels per metre, from the uv-to-world area ratio) so that each
+  // pixel samples the level whose texels match its footprint: no aliasing of far surfaces and
+  // far fewer cache misses.
+  std::vector<std::vector<Texture>> mip_levels;
+  std::vector<float> triangle_texels_per_metre;
 
   explicit Impl(const Scene& s) : scene(s) {}
   ~Impl() {
@@ -25,28 +31,84 @@ struct Renderer::Impl {
   }
 
   Eigen::Vector3f sample_texture(const Texture& texture, float u, float v) const {
-    // Bilinear with wrap-around; row 0 is v = 1 (top).
-    const float sx = u * texture.width - 0.5f;
-    const float sy = (1.0f - v) * texture.height - 0.5f;
-    const float fx0 = std::floor(sx), fy0 = std::floor(sy);
-    const float ax = sx - fx0, ay = sy - fy0;
-    auto wrap = [](long i, int n) { long m = i % n; return int(m < 0 ? m + n : m); };
-    const int x0 = wrap(long(fx0), texture.width), x1 = wrap(long(fx0) + 1, texture.width);
-    const int y0 = wrap(long(fy0), texture.height), y1 = wrap(long(fy0) + 1, texture.height);
+    // Bilinear with wrap-around ("repeat"); row 0 is v = 1 (top). Wrapping the coordinate
+    // first keeps integer division out of the per-pixel path.
+    const float wrapped_u = u - std::floor(u);
+    const float wrapped_v = (1.0f - v) - std::floor(1.0f - v);
+    const float sx = wrapped_u * texture.width - 0.5f;
+    const float sy = wrapped_v * texture.height - 0.5f;
+    int x0 = static_cast<int>(std::floor(sx)), y0 = static_cast<int>(std::floor(sy));
+    const float ax = sx - x0, ay = sy - y0;
+    int x1 = x0 + 1, y1 = y0 + 1;
+    if (x0 < 0) x0 += texture.width;
+    if (y0 < 0) y0 += texture.height;
+    if (x1 >= texture.width) x1 -= texture.width;
+    if (y1 >= texture.height) y1 -= texture.height;
+    x0 = std::min(x0, texture.width - 1);  // guards rounding at wrapped_u -> 1
+    y0 = std::min(y0, texture.height - 1);
     auto texel = [&](int x, int y) {
       const std::uint8_t* p = &texture.rgb[(std::size_t(y) * texture.width + x) * 3];
       return Eigen::Vector3f(p[0], p[1], p[2]);
     };
     return ((1 - ay) * ((1 - ax) * texel(x0, y0) + ax * texel(x1, y0)) +
-            ay * ((1 - ax) * texel(x0, y1) + ax * texel(x1, y1))) /
-           255.0f;
+            ay * ((1 - ax) * texel(x0, y1) + ax * texel(x1, y1))) *
+           (1.0f / 255.0f);
   }
 
   // Simple, view-independent shading: ambient + Lambert from the scene's point lights, no
   // shadows (consistent colour across views, which is what a registered RGB camera sees of a
   // matte static scene).
+  const Texture& mip_level(int texture, unsigned triangle, float pixel_footprint_m) const {
+    const auto& levels = mip_levels[texture];
+    const float texels_per_pixel = pixel_footprint_m * triangle_texels_per_metre[triangle];
+    int level = texels_per_pixel > 1.f ? static_cast<int>(std::log2(texels_per_pixel)) : 0;
+    return levels[std::min<int>(level, int(levels.size()) - 1)];
+  }
+
+  void build_mip_levels() {
+    for (const Texture& texture : scene.textures) {
+      std::vector<Texture> levels{texture};
+      while (levels.back().width > 1 && levels.back().height > 1) {
+        const Texture& fine = levels.back();
+        Texture coarse;
+        coarse.name = fine.name;
+        coarse.width = std::max(1, fine.width / 2);
+        coarse.height = std::max(1, fine.height / 2);
+        coarse.rgb.resize(std::size_t(coarse.width) * coarse.height * 3);
+        for (int y = 0; y < coarse.height; ++y)
+          for (int x = 0; x < coarse.width; ++x)
+            for (int c = 0; c < 3; ++c) {
+              // 2x2 box filter (the last odd row/column of the finer level is dropped).
+              int sum = 0;
+              for (int dy = 0; dy < 2; ++dy)
+                for (int dx = 0; dx < 2; ++dx)
+                  sum += fine.rgb[((std::size_t(2 * y + dy)) * fine.width + (2 * x + dx)) * 3 + c];
+              coarse.rgb[(std::size_t(y) * coarse.width + x) * 3 + c] = static_cast<std::uint8_t>((sum + 2) / 4);
+            }
+        levels.push_back(std::move(coarse));
+      }
+      mip_levels.push_back(std::move(levels));
+    }
+    const TriangleMesh& mesh = scene.mesh;
+    triangle_texels_per_metre.assign(mesh.triangles.size(), 0.f);
+    if (mesh.corner_uvs.empty() || mesh.triangle_material.empty()) return;
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+      const int texture = scene.materials[mesh.triangle_material[t]].texture;
+      if (texture < 0) continue;
+      const Eigen::Vector3i& tri = mesh.triangles[t];
+      const float world_area =
+          0.5f * (mesh.vertices[tri[1]] - mesh.vertices[tri[0]]).cross(mesh.vertices[tri[2]] - mesh.vertices[tri[0]]).norm();
+      const Eigen::Vector2f e1 = mesh.corner_uvs[3 * t + 1] - mesh.corner_uvs[3 * t];
+      const Eigen::Vector2f e2 = mesh.corner_uvs[3 * t + 2] - mesh.corner_uvs[3 * t];
+      const float texel_area = 0.5f * std::abs(e1.x() * e2.y() - e1.y() * e2.x()) * scene.textures[texture].width *
+                               scene.textures[texture].height;
+      if (world_area > 0) triangle_texels_per_metre[t] = std::sqrt(texel_area / world_area);
+    }
+  }
+
+  // `pixel_footprint_m`: the width of the surface patch one pixel sees (metres).
   Eigen::Vector3f shade(unsigned triangle, float bu, float bv, const Eigen::Vector3f& point,
-                        const Eigen::Vector3f& ray_dir) const {
+                        const Eigen::Vector3f& ray_dir, float pixel_footprint_m) const {
     const TriangleMesh& mesh = scene.mesh;
     Eigen::Vector3f albedo(0.8f, 0.8f, 0.8f);
     if (!mesh.triangle_material.empty()) {
@@ -55,7 +117,8 @@ struct Renderer::Impl {
       if (material.texture >= 0 && !mesh.corner_uvs.empty()) {
         const Eigen::Vector2f uv = (1 - bu - bv) * mesh.corner_uvs[3 * triangle] +
                                    bu * mesh.corner_uvs[3 * triangle + 1] + bv * mesh.corner_uvs[3 * triangle + 2];
-        albedo = albedo.cwiseProduct(sample_texture(scene.textures[material.texture], uv.x(), uv.y()));
+        albedo = albedo.cwiseProduct(
+            sample_texture(mip_level(material.texture, triangle, pixel_footprint_m), uv.x(), uv.y()));
       }
     }
     Eigen::Vector3f normal = triangle_normals[triangle];
@@ -103,6 +166,7 @@ Renderer::Renderer(const Scene& scene) : impl_(std::make_unique<Impl>(scene)) {
   rtcAttachGeometry(impl_->rtc_scene, geometry);
   rtcReleaseGeometry(geometry);
   rtcCommitScene(impl_->rtc_scene);
+  impl_->build_mip_levels();
   const RTCError error = rtcGetDeviceError(impl_->device);
   if (error != RTC_ERROR_NONE) throw Error("Embree: scene build failed (error " + std::to_string(int(error)) + ")");
 }
@@ -166,8 +230,14 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
       out.depth.at(x, y) = t;
       out.triangle_id.at(x, y) = static_cast<int>(triangle);
       const Eigen::Vector3f& normal = impl_->triangle_normals[triangle];
-      out.incidence_cos.at(x, y) = std::abs(normal.dot(direction)) / direction.norm();
-      const Eigen::Vector3f colour = impl_->shade(triangle, ray_hit.hit.u, ray_hit.hit.v, origin + t * direction, direction);
+      const float ray_length = direction.norm();
+      const float cos_incidence = std::abs(normal.dot(direction)) / ray_length;
+      out.incidence_cos.at(x, y) = cos_incidence;
+      // A pixel covers range / f metres across the ray, stretched by 1 / cos along the slope;
+      // the geometric mean of the two keeps slanted floors sharp without aliasing.
+      const float footprint = t * ray_length / float(k.fx) / std::sqrt(std::max(cos_incidence, 0.05f));
+      const Eigen::Vector3f colour =
+          impl_->shade(triangle, ray_hit.hit.u, ray_hit.hit.v, origin + t * direction, direction, footprint);
       for (int c = 0; c < 3; ++c)
         out.rgb.at(x, y, c) = static_cast<std::uint8_t>(std::clamp(colour[c] * 255.f + 0.5f, 0.f, 255.f));
     }
@@ -191,6 +261,7 @@ RenderedView Renderer::render_equirectangular(const Rigid3d& world_from_pano, co
   view.triangle_id = ImageI32(width, height, 1, -1);
   const Eigen::Matrix3d rotation = world_from_pano.linear();
   const Eigen::Vector3f origin = world_from_pano.translation().cast<float>();
+  const double pixel_angle = M_PI / height;  // angular size of one panorama pixel
   tbb::parallel_for(tbb::blocked_range<int>(0, height, 4), [&](const tbb::blocked_range<int>& rows) {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
@@ -206,8 +277,11 @@ RenderedView Renderer::render_equirectangular(const Rigid3d& world_from_pano, co
         const float t = ray_hit.ray.tfar;
         view.depth.at(x, y) = t;
         view.triangle_id.at(x, y) = static_cast<int>(triangle);
-        view.incidence_cos.at(x, y) = std::abs(impl_->triangle_normals[triangle].dot(direction));
-        const Eigen::Vector3f colour = impl_->shade(triangle, ray_hit.hit.u, ray_hit.hit.v, origin + t * direction, direction);
+        const float cos_incidence = std::abs(impl_->triangle_normals[triangle].dot(direction));
+        view.incidence_cos.at(x, y) = cos_incidence;
+        const float footprint = t * float(pixel_angle) / std::sqrt(std::max(cos_incidence, 0.05f));
+        const Eigen::Vector3f colour =
+            impl_->shade(triangle, ray_hit.hit.u, ray_hit.hit.v, origin + t * direction, direction, footprint);
         for (int c = 0; c < 3; ++c)
           view.rgb.at(x, y, c) = static_cast<std::uint8_t>(std::clamp(colour[c] * 255.f + 0.5f, 0.f, 255.f));
       }

@@ -1,7 +1,7 @@
 // Seeded random streams whose draws depend only on their key, never on thread count or on the
 // order in which work is scheduled: every stream is keyed by (seed, camera, frame, purpose, lane)
-// and generates with its own counter. Normal deviates use Box-Muller on our own uniform
-// generator, so results are identical across standard libraries.
+// and generates with xoshiro256**. Normal deviates use our own ziggurat (Marsaglia & Tsang), so
+// results are identical across standard libraries and cheap enough for per-pixel noise.
 #pragma once
 
 #include <cstdint>
@@ -40,8 +40,6 @@ class RandomStream {
 
  private:
   std::uint64_t state_[4];
-  bool has_spare_normal_ = false;
-  double spare_normal_ = 0.0;
 };
 
 }  // namespace panoscan
