@@ -1,15 +1,15 @@
 // Tests of PLY mesh files: exact binary round trip, ASCII and binary files written by other tools
 // (extra properties and elements, polygons, doubles, other index types), and bad input rejected
 // with an Error that names the file and the element or field.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <string>
-
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
 
 #include "panoscan/core/error.h"
 #include "panoscan/core/mesh_io.h"

@@ -1,28 +1,29 @@
 // Tests of the built-in scenes (geometry, materials, scanning positions, texture richness as ORB
 // sees it), of their export to OBJ/MTL/PNG/PLY/JSON, and of loading scene files through assimp,
 // including bad input rejected with an Error naming the file.
+#include "panoscan/scenes/scenes.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <set>
 #include <string>
 #include <tuple>
 #include <utility>
 #include <vector>
 
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
-#include <opencv2/core.hpp>
-#include <opencv2/features2d.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include "panoscan/core/error.h"
 #include "panoscan/core/geometry.h"
 #include "panoscan/core/image_io.h"
 #include "panoscan/core/mesh_io.h"
-#include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/renderer.h"
 #include "panoscan/sim/scene_loader.h"
 #include "test_util.h"
@@ -120,8 +121,8 @@ TEST_P(BuiltinSceneTest, IsAValidTexturedSceneOfTheRightSize) {
   }
   EXPECT_LT(texture_bytes, 40u * 1024 * 1024);
   std::printf("[ scene    ] %s: %zu triangles, %zu vertices, %zu materials, %zu textures (%.1f MB)\n",
-              scene.name.c_str(), triangles, scene.mesh.vertices.size(), scene.materials.size(),
-              scene.textures.size(), texture_bytes / 1048576.0);
+              scene.name.c_str(), triangles, scene.mesh.vertices.size(), scene.materials.size(), scene.textures.size(),
+              texture_bytes / 1048576.0);
   ASSERT_GE(scene.lights.size(), 2u);
   EXPECT_LE(scene.lights.size(), 4u);
 }
@@ -164,21 +165,63 @@ TEST_P(BuiltinSceneTest, IsAClosedRoomSeenFromTheFront) {
       ASSERT_LT(distance, diagonal);
       const Eigen::Vector3i& tri = scene.mesh.triangles[static_cast<std::size_t>(triangle)];
       const Eigen::Vector3f& a = scene.mesh.vertices[tri[0]];
-      const Eigen::Vector3f normal =
-          (scene.mesh.vertices[tri[1]] - a).cross(scene.mesh.vertices[tri[2]] - a);
+      const Eigen::Vector3f normal = (scene.mesh.vertices[tri[1]] - a).cross(scene.mesh.vertices[tri[2]] - a);
       if (normal.cast<double>().dot(direction) < 0) ++front_hits;
     }
     EXPECT_GE(front_hits, rays - rays / 200) << position.name << ": surfaces wound the wrong way";
   }
 }
 
+// Nothing pokes through the walls: outside the floor's rectangle there are only the window and door
+// recesses (at most 0.25 m deep) and their fittings.
+TEST_P(BuiltinSceneTest, NothingPokesThroughTheWalls) {
+  const Scene& scene = builtin(GetParam());
+  const TriangleMesh& mesh = scene.mesh;
+  // The floor: the material of the largest triangle lying on z = 0.
+  std::size_t largest = 0;
+  double largest_area = 0.0;
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const Eigen::Vector3f &a = mesh.vertices[mesh.triangles[t][0]], &b = mesh.vertices[mesh.triangles[t][1]],
+                          &c = mesh.vertices[mesh.triangles[t][2]];
+    const double area = 0.5 * (b - a).cross(c - a).norm();
+    if (a.z() == 0.f && b.z() == 0.f && c.z() == 0.f && area > largest_area) {
+      largest_area = area;
+      largest = t;
+    }
+  }
+  const int floor_material = mesh.triangle_material[largest];
+  Eigen::Vector2f lo(1e9f, 1e9f), hi(-1e9f, -1e9f);
+  float ceiling = 0.f;
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3f& v = mesh.vertices[mesh.triangles[t][k]];
+      ceiling = std::max(ceiling, v.z());
+      if (mesh.triangle_material[t] != floor_material) continue;
+      lo = lo.cwiseMin(v.head<2>());
+      hi = hi.cwiseMax(v.head<2>());
+    }
+  EXPECT_GT(largest_area, 5.0) << "the floor is one big rectangle";
+  EXPECT_GE(ceiling, 2.6f);
+  const std::set<std::string> fittings = {"plaster",    "outdoor_view",  "outdoor_view_1", "door_leaf",
+                                          "trim_paint", "brushed_steel", "ceramic_tiles"};
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3f& v = mesh.vertices[mesh.triangles[t][k]];
+      const float outside = std::max({lo.x() - v.x(), v.x() - hi.x(), lo.y() - v.y(), v.y() - hi.y()});
+      if (outside <= 1e-4f) continue;
+      const std::string& material = scene.materials[static_cast<std::size_t>(mesh.triangle_material[t])].name;
+      ASSERT_LE(outside, 0.25f) << material << " at " << v.transpose();
+      ASSERT_TRUE(fittings.count(material)) << material << " pokes through a wall at " << v.transpose();
+    }
+}
+
 // Scanning positions: in the room, clear of everything up to 1.5 m by 0.6 m around the rotation
 // axis (floor coverings excepted), and the paper's pairs within 3 m of each other.
 TEST_P(BuiltinSceneTest, PositionsHaveClearanceAndAreCloseEnough) {
   const Scene& scene = builtin(GetParam());
-  const std::vector<std::string> expected_names =
-      GetParam() == "living_room" ? std::vector<std::string>{"SL-1", "SL-2"}
-                                  : std::vector<std::string>{"SO-1", "SO-2", "SO-3", "SO-4"};
+  const std::vector<std::string> expected_names = GetParam() == "living_room"
+                                                      ? std::vector<std::string>{"SL-1", "SL-2"}
+                                                      : std::vector<std::string>{"SO-1", "SO-2", "SO-3", "SO-4"};
   ASSERT_EQ(scene.positions.size(), expected_names.size());
   std::map<std::string, Eigen::Vector3d> at;
   for (std::size_t i = 0; i < expected_names.size(); ++i) {
@@ -198,7 +241,8 @@ TEST_P(BuiltinSceneTest, PositionsHaveClearanceAndAreCloseEnough) {
       const Eigen::Vector3d c = mesh.vertices[mesh.triangles[t][2]].cast<double>();
       if (std::max({a.z(), b.z(), c.z()}) < 0.03) continue;
       const Eigen::Vector2d p = position.floor_point.head<2>();
-      const double horizontal = std::min({(a.head<2>() - p).norm(), (b.head<2>() - p).norm(), (c.head<2>() - p).norm()});
+      const double horizontal =
+          std::min({(a.head<2>() - p).norm(), (b.head<2>() - p).norm(), (c.head<2>() - p).norm()});
       const double span = std::max({(a - b).norm(), (b - c).norm(), (c - a).norm()});
       if (horizontal - span > 1.0) continue;  // far away: cannot be within 0.6 m
       for (double h = 0.03; h <= 1.5 + 1e-9; h += 0.02) {
@@ -214,9 +258,9 @@ TEST_P(BuiltinSceneTest, PositionsHaveClearanceAndAreCloseEnough) {
                 position.floor_point.x(), position.floor_point.y(), clearance, nearest.c_str());
   }
   const std::vector<std::pair<std::string, std::string>> pairs =
-      GetParam() == "living_room"
-          ? std::vector<std::pair<std::string, std::string>>{{"SL-1", "SL-2"}}
-          : std::vector<std::pair<std::string, std::string>>{{"SO-1", "SO-3"}, {"SO-1", "SO-4"}, {"SO-2", "SO-3"}, {"SO-2", "SO-4"}};
+      GetParam() == "living_room" ? std::vector<std::pair<std::string, std::string>>{{"SL-1", "SL-2"}}
+                                  : std::vector<std::pair<std::string, std::string>>{
+                                        {"SO-1", "SO-3"}, {"SO-1", "SO-4"}, {"SO-2", "SO-3"}, {"SO-2", "SO-4"}};
   for (const auto& [first, second] : pairs) {
     const double distance = (at[first] - at[second]).norm();
     EXPECT_LE(distance, 3.0) << first << "-" << second;
@@ -287,7 +331,8 @@ int unmatched_triangles(const Scene& expected, const Scene& actual, float positi
   const float cell = 0.01f;
   auto centroid_cell = [&](const TriangleMesh& mesh, std::size_t t) {
     const Eigen::Vector3f c = (mesh.vertices[mesh.triangles[t][0]] + mesh.vertices[mesh.triangles[t][1]] +
-                               mesh.vertices[mesh.triangles[t][2]]) / 3.f;
+                               mesh.vertices[mesh.triangles[t][2]]) /
+                              3.f;
     return Eigen::Vector3i(int(std::floor(c.x() / cell)), int(std::floor(c.y() / cell)), int(std::floor(c.z() / cell)));
   };
   auto key = [](const Eigen::Vector3i& c) { return std::make_tuple(c.x(), c.y(), c.z()); };
@@ -297,11 +342,13 @@ int unmatched_triangles(const Scene& expected, const Scene& actual, float positi
   auto same = [&](std::size_t e, std::size_t a, int rotation) {
     const TriangleMesh& em = expected.mesh;
     const TriangleMesh& am = actual.mesh;
-    if (expected.materials[std::size_t(em.triangle_material[e])].name != actual.materials[std::size_t(am.triangle_material[a])].name)
+    if (expected.materials[std::size_t(em.triangle_material[e])].name !=
+        actual.materials[std::size_t(am.triangle_material[a])].name)
       return false;
     for (int k = 0; k < 3; ++k) {
       const int ka = (k + rotation) % 3;
-      if ((em.vertices[em.triangles[e][k]] - am.vertices[am.triangles[a][ka]]).cwiseAbs().maxCoeff() > position_tolerance)
+      if ((em.vertices[em.triangles[e][k]] - am.vertices[am.triangles[a][ka]]).cwiseAbs().maxCoeff() >
+          position_tolerance)
         return false;
       if ((em.corner_uvs[3 * e + k] - am.corner_uvs[3 * a + ka]).cwiseAbs().maxCoeff() > uv_tolerance) return false;
     }
@@ -402,9 +449,9 @@ void write_quad_obj(const fs::path& dir, const std::string& stem) {
       for (int c = 0; c < 3; ++c) image.at(x, y, c) = static_cast<std::uint8_t>(40 * x + 100 * y + c);
   write_png(dir / "quad.png", image);
   write_text(dir / (stem + ".mtl"), "newmtl painted\nKd 0.5 1 1\nmap_Kd quad.png\n");
-  write_text(dir / (stem + ".obj"),
-             "mtllib " + stem + ".mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 2 0\nvt 2 1\nvt 0 1\n"
-             "usemtl painted\nf 1/1 2/2 3/3 4/4\n");
+  write_text(dir / (stem + ".obj"), "mtllib " + stem +
+                                        ".mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 2 0\nvt 2 1\nvt 0 1\n"
+                                        "usemtl painted\nf 1/1 2/2 3/3 4/4\n");
 }
 
 TEST(LoadScene, ReadsObjWithMaterialTextureAndPositions) {
@@ -480,6 +527,49 @@ TEST(LoadScene, ReadsGltfWithNodeTransform) {
     EXPECT_NEAR(uv.x(), local.x(), 1e-6f);
     EXPECT_NEAR(uv.y(), 1.f - local.y(), 1e-6f);
   }
+}
+
+// glTF with the texture image inside its buffer (as GLB files carry them).
+TEST(LoadScene, ReadsGltfWithEmbeddedTexture) {
+  TempDir dir("load-scene");
+  ImageU8 image(3, 2, 3);
+  for (std::size_t i = 0; i < image.data.size(); ++i) image.data[i] = static_cast<std::uint8_t>(10 * i);
+  write_png(dir / "source.png", image);
+  std::ifstream png_in(dir / "source.png", std::ios::binary);
+  const std::string png((std::istreambuf_iterator<char>(png_in)), std::istreambuf_iterator<char>());
+  fs::remove(dir / "source.png");
+  std::string buffer;
+  const float positions[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  const float uvs[6] = {0, 0, 1, 0, 0, 1};
+  const std::uint16_t indices[4] = {0, 1, 2, 0};
+  buffer.append(reinterpret_cast<const char*>(positions), sizeof(positions));
+  buffer.append(reinterpret_cast<const char*>(uvs), sizeof(uvs));
+  buffer.append(reinterpret_cast<const char*>(indices), sizeof(indices));
+  buffer += png;
+  write_text(dir / "embedded.bin", buffer);
+  write_text(dir / "embedded.gltf", R"({
+    "asset": {"version": "2.0"},
+    "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}]}],
+    "materials": [{"name": "embedded_material", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+    "textures": [{"source": 0}], "images": [{"bufferView": 3, "mimeType": "image/png"}],
+    "buffers": [{"uri": "embedded.bin", "byteLength": )" +
+                                        std::to_string(buffer.size()) + R"(}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 24},
+                    {"buffer": 0, "byteOffset": 60, "byteLength": 6},
+                    {"buffer": 0, "byteOffset": 68, "byteLength": )" +
+                                        std::to_string(png.size()) + R"(}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+                  {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"},
+                  {"bufferView": 2, "componentType": 5123, "count": 3, "type": "SCALAR"}]})");
+  write_text(dir / "positions.json", kPositionsJson);
+  const Scene scene = load_scene_file(dir / "embedded.gltf");
+  ASSERT_EQ(scene.textures.size(), 1u);
+  EXPECT_EQ(scene.textures[0].width, 3);
+  EXPECT_EQ(scene.textures[0].height, 2);
+  EXPECT_TRUE(scene.textures[0].rgb == image.data);
+  ASSERT_EQ(scene.materials.size(), 1u);
+  EXPECT_EQ(scene.materials[0].texture, 0);
 }
 
 TEST(LoadScene, MissingFile) {

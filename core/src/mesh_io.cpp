@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -65,11 +66,11 @@ bool parse_type(const std::string& word, PlyType* type) {
   static const struct {
     const char* name;
     PlyType type;
-  } kTypes[] = {{"char", PlyType::kInt8},     {"int8", PlyType::kInt8},       {"uchar", PlyType::kUInt8},
-                {"uint8", PlyType::kUInt8},   {"short", PlyType::kInt16},     {"int16", PlyType::kInt16},
-                {"ushort", PlyType::kUInt16}, {"uint16", PlyType::kUInt16},   {"int", PlyType::kInt32},
-                {"int32", PlyType::kInt32},   {"uint", PlyType::kUInt32},     {"uint32", PlyType::kUInt32},
-                {"float", PlyType::kFloat32}, {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
+  } kTypes[] = {{"char", PlyType::kInt8},      {"int8", PlyType::kInt8},       {"uchar", PlyType::kUInt8},
+                {"uint8", PlyType::kUInt8},    {"short", PlyType::kInt16},     {"int16", PlyType::kInt16},
+                {"ushort", PlyType::kUInt16},  {"uint16", PlyType::kUInt16},   {"int", PlyType::kInt32},
+                {"int32", PlyType::kInt32},    {"uint", PlyType::kUInt32},     {"uint32", PlyType::kUInt32},
+                {"float", PlyType::kFloat32},  {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
                 {"float64", PlyType::kFloat64}};
   for (const auto& entry : kTypes)
     if (word == entry.name) {
@@ -82,13 +83,17 @@ bool parse_type(const std::string& word, PlyType* type) {
 std::size_t type_size(PlyType type) {
   switch (type) {
     case PlyType::kInt8:
-    case PlyType::kUInt8: return 1;
+    case PlyType::kUInt8:
+      return 1;
     case PlyType::kInt16:
-    case PlyType::kUInt16: return 2;
+    case PlyType::kUInt16:
+      return 2;
     case PlyType::kInt32:
     case PlyType::kUInt32:
-    case PlyType::kFloat32: return 4;
-    case PlyType::kFloat64: return 8;
+    case PlyType::kFloat32:
+      return 4;
+    case PlyType::kFloat64:
+      return 8;
   }
   return 0;
 }
@@ -123,14 +128,46 @@ class BinaryReader : public DataReader {
     if (swap_)
       for (std::size_t i = 0; i < size / 2; ++i) std::swap(bytes[i], bytes[size - 1 - i]);
     switch (type) {
-      case PlyType::kInt8: { std::int8_t v; std::memcpy(&v, bytes, 1); return v; }
-      case PlyType::kUInt8: { std::uint8_t v; std::memcpy(&v, bytes, 1); return v; }
-      case PlyType::kInt16: { std::int16_t v; std::memcpy(&v, bytes, 2); return v; }
-      case PlyType::kUInt16: { std::uint16_t v; std::memcpy(&v, bytes, 2); return v; }
-      case PlyType::kInt32: { std::int32_t v; std::memcpy(&v, bytes, 4); return v; }
-      case PlyType::kUInt32: { std::uint32_t v; std::memcpy(&v, bytes, 4); return v; }
-      case PlyType::kFloat32: { float v; std::memcpy(&v, bytes, 4); return v; }
-      case PlyType::kFloat64: { double v; std::memcpy(&v, bytes, 8); return v; }
+      case PlyType::kInt8: {
+        std::int8_t v;
+        std::memcpy(&v, bytes, 1);
+        return v;
+      }
+      case PlyType::kUInt8: {
+        std::uint8_t v;
+        std::memcpy(&v, bytes, 1);
+        return v;
+      }
+      case PlyType::kInt16: {
+        std::int16_t v;
+        std::memcpy(&v, bytes, 2);
+        return v;
+      }
+      case PlyType::kUInt16: {
+        std::uint16_t v;
+        std::memcpy(&v, bytes, 2);
+        return v;
+      }
+      case PlyType::kInt32: {
+        std::int32_t v;
+        std::memcpy(&v, bytes, 4);
+        return v;
+      }
+      case PlyType::kUInt32: {
+        std::uint32_t v;
+        std::memcpy(&v, bytes, 4);
+        return v;
+      }
+      case PlyType::kFloat32: {
+        float v;
+        std::memcpy(&v, bytes, 4);
+        return v;
+      }
+      case PlyType::kFloat64: {
+        double v;
+        std::memcpy(&v, bytes, 8);
+        return v;
+      }
     }
     return 0.0;
   }
@@ -162,10 +199,12 @@ class AsciiReader : public DataReader {
     while (end < data_.size() && !std::isspace(static_cast<unsigned char>(data_[end]))) ++end;
     const std::string token = data_.substr(offset_, end - offset_);
     offset_ = end;
-    char* parse_end = nullptr;
-    const double value = std::strtod(token.c_str(), &parse_end);
-    if (parse_end == token.c_str() || *parse_end != '\0')
-      throw make_error(file_, what, "'" + token + "' is not a number");
+    // from_chars: locale-independent (a comma-decimal locale must not change what a file means).
+    const char* first = token.data() + (token.size() > 1 && token[0] == '+' ? 1 : 0);
+    const char* last = token.data() + token.size();
+    double value = 0.0;
+    const auto [parse_end, error] = std::from_chars(first, last, value);
+    if (error != std::errc() || parse_end != last) throw make_error(file_, what, "'" + token + "' is not a number");
     if (is_integer_type(type) && std::isfinite(value) && value != std::floor(value))
       throw make_error(file_, what, "'" + token + "' is not an integer");
     return value;
@@ -255,10 +294,14 @@ TriangleMesh read_ply_mesh(const fs::path& path) {
     if (keyword == "format") {
       std::string name, version;
       words >> name >> version;
-      if (name == "ascii") format = PlyFormat::kAscii;
-      else if (name == "binary_little_endian") format = PlyFormat::kBinaryLittleEndian;
-      else if (name == "binary_big_endian") format = PlyFormat::kBinaryBigEndian;
-      else throw make_error(file, where, "unknown format '" + name + "'");
+      if (name == "ascii")
+        format = PlyFormat::kAscii;
+      else if (name == "binary_little_endian")
+        format = PlyFormat::kBinaryLittleEndian;
+      else if (name == "binary_big_endian")
+        format = PlyFormat::kBinaryBigEndian;
+      else
+        throw make_error(file, where, "unknown format '" + name + "'");
       have_format = true;
     } else if (keyword == "element") {
       PlyElement element;
@@ -333,7 +376,7 @@ TriangleMesh read_ply_mesh(const fs::path& path) {
 
   TriangleMesh mesh;
   std::vector<std::int64_t> corner_indices;  // 3 per triangle, validated once all vertices are known
-  std::vector<std::uint64_t> triangle_face;   // the face each triangle came from, for error messages
+  std::vector<std::uint64_t> triangle_face;  // the face each triangle came from, for error messages
   for (const PlyElement& element : elements) {
     const bool is_vertex = &element == vertex_element, is_face = &element == face_element;
     // Each item takes at least one byte (or token): a larger count than the data left is corrupt.
@@ -348,8 +391,9 @@ TriangleMesh read_ply_mesh(const fs::path& path) {
       for (std::size_t p = 0; p < element.properties.size(); ++p) {
         const PlyProperty& property = element.properties[p];
         if (!property.is_list) {
-          if (is_vertex && (static_cast<int>(p) == coordinate_property[0] || static_cast<int>(p) == coordinate_property[1] ||
-                            static_cast<int>(p) == coordinate_property[2])) {
+          if (is_vertex &&
+              (static_cast<int>(p) == coordinate_property[0] || static_cast<int>(p) == coordinate_property[1] ||
+               static_cast<int>(p) == coordinate_property[2])) {
             const double value = reader->read(property.type, what + " property " + property.name);
             if (!std::isfinite(value))
               throw make_error(file, what, "property " + property.name + " is not finite (NaN or inf)");
@@ -380,8 +424,7 @@ TriangleMesh read_ply_mesh(const fs::path& path) {
         }
       }
       if (is_vertex) mesh.vertices.push_back(position.cast<float>());
-      if (is_vertex && !mesh.vertices.back().allFinite())
-        throw make_error(file, what, "coordinate out of float range");
+      if (is_vertex && !mesh.vertices.back().allFinite()) throw make_error(file, what, "coordinate out of float range");
     }
   }
 
@@ -392,9 +435,9 @@ TriangleMesh read_ply_mesh(const fs::path& path) {
     for (int k = 0; k < 3; ++k) {
       const std::int64_t index = corner_indices[c + k];
       if (index < 0 || index >= num_vertices)
-        throw make_error(file, "face " + std::to_string(triangle_face[c / 3]),
-                         "vertex index " + std::to_string(index) + " out of range (" + std::to_string(num_vertices) +
-                             " vertices)");
+        throw make_error(
+            file, "face " + std::to_string(triangle_face[c / 3]),
+            "vertex index " + std::to_string(index) + " out of range (" + std::to_string(num_vertices) + " vertices)");
       triangle[k] = static_cast<int>(index);
     }
     mesh.triangles.push_back(triangle);

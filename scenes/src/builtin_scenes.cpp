@@ -3,8 +3,6 @@
 // Layout rule: furniture stands along the walls and the scanning positions lie in the open middle,
 // at least 0.6 m from anything below 1.5 m (the rig and the 0.5 m minimum depth need that), and
 // close enough to each other (under 3 m) that their panoramas see mostly the same room.
-#include "panoscan/scenes/scenes.h"
-
 #include <cmath>
 #include <string>
 
@@ -12,6 +10,7 @@
 #include "materials.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/random.h"
+#include "panoscan/scenes/scenes.h"
 #include "scene_builder.h"
 
 namespace panoscan::scenes {
@@ -70,8 +69,8 @@ Scene make_living_room() {
   MaterialLibrary m(b, kLivingRoomSeed);
   RandomStream rng(kLivingRoomSeed, 0, 0, RandomPurpose::kScene, 1);
   const RoomWalls walls = room_walls(width, depth);
-  const WallOpening door{0.45f, 1.35f, 0.f, 2.05f};      // north wall, s = x
-  const WallOpening window{1.4f, 3.0f, 0.85f, 2.25f};    // east wall, s = depth - y
+  const WallOpening door{0.45f, 1.35f, 0.f, 2.05f};    // north wall, s = x
+  const WallOpening window{1.4f, 3.0f, 0.85f, 2.25f};  // east wall, s = depth - y
 
   add_floor_and_ceiling(b, width, depth, height, m(MK::kParquetFloor), m(MK::kCofferedCeiling));
   b.add_wall(walls.south.start, walls.south.end, height, {}, m(MK::kDamaskWallpaper));
@@ -124,7 +123,7 @@ Scene make_living_room() {
   add_armchair(b, m, m(MK::kUpholsteryOchre));
   b.pop();
   b.push(place(Vec3(0.4f, 0.4f, 0.f)));
-  add_plant(b, m, rng, 1.0f);
+  add_plant(b, m, rng, 1.0f, 0.38f);
   b.pop();
   b.push(place(Vec3(0.35f, 2.78f, 0.f)));  // side table with a lamp beside the armchair
   add_round_table(b, m, 0.25f, 0.55f, m(MK::kWalnutWood));
@@ -156,7 +155,7 @@ Scene make_living_room() {
   add_tv_unit(b, m);
   b.pop();
   b.push(place(Vec3(5.15f, 4.15f, 0.f)));
-  add_plant(b, m, rng, 1.25f);
+  add_plant(b, m, rng, 1.25f, 0.4f);
   b.pop();
 
   // East wall (s = depth - y): window with radiator and curtains, writing desk with a monitor and a
@@ -204,7 +203,7 @@ Scene make_office() {
   const RoomWalls walls = room_walls(width, depth);
   const WallOpening window_east_half{1.0f, 2.4f, 0.95f, 2.25f};  // south wall, s = width - x
   const WallOpening window_west_half{4.2f, 5.6f, 0.95f, 2.25f};
-  const WallOpening door{2.4f, 3.3f, 0.f, 2.1f};                  // east wall, s = depth - y
+  const WallOpening door{2.4f, 3.3f, 0.f, 2.1f};  // east wall, s = depth - y
 
   add_floor_and_ceiling(b, width, depth, height, m(MK::kCarpetTiles), m(MK::kAcousticCeiling));
   b.add_wall(walls.south.start, walls.south.end, height, {window_east_half, window_west_half}, m(MK::kBrickWall));
@@ -236,7 +235,7 @@ Scene make_office() {
         break;
       case 2:
         b.push(place(Vec3(0.52f, 0.1f, 0.74f)));
-        add_plant(b, m, rng, 0.45f);
+        add_plant(b, m, rng, 0.45f, 0.25f);
         b.pop();
         break;
       default:
@@ -300,7 +299,7 @@ Scene make_office() {
   add_bookshelf(b, m, rng, 1.0f, 2.1f, 5, m(MK::kOakWood));
   b.pop();
   b.push(place(Vec3(0.4f, 0.4f, 0.f)));
-  add_plant(b, m, rng, 1.1f);
+  add_plant(b, m, rng, 1.1f, 0.38f);
   b.pop();
 
   // East wall (s = depth - y): door, two filing cabinets, coat stand, poster; plants in the corners.
@@ -319,17 +318,17 @@ Scene make_office() {
   add_coat_stand(b, m);
   b.pop();
   b.push(place(Vec3(6.2f, 0.4f, 0.f)));
-  add_plant(b, m, rng, 1.2f);
+  add_plant(b, m, rng, 1.2f, 0.38f);
   b.pop();
   b.push(place(Vec3(6.2f, 5.2f, 0.f)));
-  add_plant(b, m, rng, 0.9f);
+  add_plant(b, m, rng, 0.9f, 0.38f);
   b.pop();
 
   // Middle: a small round table with a plant and books.
   b.push(place(Vec3(3.3f, 2.8f, 0.f)));
   add_round_table(b, m, 0.42f, 0.72f, m(MK::kOakWood));
   b.push(place(Vec3(0.1f, 0.08f, 0.72f)));
-  add_plant(b, m, rng, 0.4f);
+  add_plant(b, m, rng, 0.4f, 0.35f);
   b.pop();
   b.push(place(Vec3(-0.15f, -0.12f, 0.72f), 1.1f));
   add_book_stack(b, m, rng, 2);

@@ -1,17 +1,18 @@
 // Export of a scene to files any viewer opens: Wavefront OBJ + MTL with PNG textures, a binary PLY
 // of the geometry (the ground truth for evaluation) and the scanning positions as JSON.
+#include <fmt/format.h>
+
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <numeric>
 #include <set>
 #include <string>
 #include <unordered_map>
 #include <vector>
-
-#include <fmt/format.h>
-#include <nlohmann/json.hpp>
 
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/error.h"
@@ -30,8 +31,8 @@ namespace {
 std::string sanitize(const std::string& name, const std::string& fallback) {
   std::string out;
   for (char c : name) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-                    c == '-' || c == '.';
+    const bool ok =
+        (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' || c == '.';
     out += ok ? c : '_';
   }
   if (out.empty() || out == "." || out == "..") out = fallback;
@@ -63,6 +64,15 @@ struct UvKeyHash {
 };
 
 constexpr const char* kDefaultMaterial = "panoscan_default";
+
+// A float as the double with the same shortest decimal form (2.45f is written 2.45, not
+// 2.450000047683716).
+double tidy(float value) {
+  const std::string text = fmt::format("{}", value);
+  double result = value;
+  std::from_chars(text.data(), text.data() + text.size(), result);  // locale-independent
+  return result;
+}
 
 }  // namespace
 
@@ -103,7 +113,8 @@ void export_scene(const Scene& scene, const fs::path& out_dir) {
   const bool any_untextured_face =
       !has_materials || std::any_of(mesh.triangle_material.begin(), mesh.triangle_material.end(),
                                     [](int material) { return material < 0; });
-  if (any_untextured_face) mtl += fmt::format("\nnewmtl {}\nKa 0 0 0\nKd 0.8 0.8 0.8\nKs 0 0 0\nd 1\nillum 1\n", kDefaultMaterial);
+  if (any_untextured_face)
+    mtl += fmt::format("\nnewmtl {}\nKa 0 0 0\nKd 0.8 0.8 0.8\nKs 0 0 0\nd 1\nillum 1\n", kDefaultMaterial);
   write_file_atomic(out_dir / (stem + ".mtl"), mtl);
 
   // Geometry: vertices, deduplicated texture coordinates, faces grouped by material.
@@ -147,19 +158,21 @@ void export_scene(const Scene& scene, const fs::path& out_dir) {
   write_ply_mesh(out_dir / (stem + "_groundtruth.ply"), mesh);
 
   // Scanning positions and lights, in the format load_scene_file reads back.
-  nlohmann::json positions = nlohmann::json::array();
+  using Json = nlohmann::ordered_json;  // keeps "format" and "version" first
+  Json positions = Json::array();
   for (const ScanPosition& p : scene.positions)
     positions.push_back({{"name", p.name},
                          {"floor_point", {p.floor_point.x(), p.floor_point.y(), p.floor_point.z()}},
                          {"start_heading_deg", p.start_heading_rad * 180.0 / 3.14159265358979323846}});
-  nlohmann::json lights = nlohmann::json::array();
+  Json lights = Json::array();
   for (const PointLight& l : scene.lights)
-    lights.push_back({{"position", {l.position.x(), l.position.y(), l.position.z()}}, {"intensity", l.intensity}});
-  const nlohmann::json document = {{"format", "panoscan-positions"},
-                                   {"version", 1},
-                                   {"scene", scene.name},
-                                   {"positions", positions},
-                                   {"lights", lights}};
+    lights.push_back({{"position", {tidy(l.position.x()), tidy(l.position.y()), tidy(l.position.z())}},
+                      {"intensity", tidy(l.intensity)}});
+  const Json document = {{"format", "panoscan-positions"},
+                         {"version", 1},
+                         {"scene", scene.name},
+                         {"positions", positions},
+                         {"lights", lights}};
   write_file_atomic(out_dir / (stem + ".positions.json"), document.dump(2) + "\n");
 }
 

@@ -126,9 +126,9 @@ void add_window(SceneBuilder& b, MaterialLibrary& m, const WallOpening& o, const
   const float rod_t = o.t1 + 0.16f, curtain_y = -0.11f;
   b.add_rod(Vec3(o.s0 - 0.5f, curtain_y, rod_t), Vec3(o.s1 + 0.5f, curtain_y, rod_t), 0.012f, 12, m(MK::kDarkMetal));
   for (float end : {o.s0 - 0.5f, o.s1 + 0.5f})
-    b.add_lathe(Vec3(end, curtain_y, rod_t - 0.025f), {Vec2(0.f, 0.f), Vec2(0.02f, 0.01f), Vec2(0.025f, 0.025f),
-                                                        Vec2(0.02f, 0.04f), Vec2(0.f, 0.05f)},
-                16, m(MK::kDarkMetal));
+    b.add_lathe(Vec3(end, curtain_y, rod_t - 0.025f),
+                {Vec2(0.f, 0.f), Vec2(0.02f, 0.01f), Vec2(0.025f, 0.025f), Vec2(0.02f, 0.04f), Vec2(0.f, 0.05f)}, 16,
+                m(MK::kDarkMetal));
   for (int side = 0; side < 2; ++side) {
     const float a = side == 0 ? o.s0 - 0.42f : o.s1 - 0.12f, b_end = side == 0 ? o.s0 + 0.12f : o.s1 + 0.42f;
     std::vector<Vec2> folds;
@@ -142,7 +142,8 @@ void add_door(SceneBuilder& b, MaterialLibrary& m, const WallOpening& o) {
   const float d = 0.05f;
   const int trim = m(MK::kTrimPaint);
   b.add_inward_box(Vec3(o.s0, 0.f, o.t0), Vec3(o.s1, d, o.t1), trim, kFaceMinX | kFaceMaxX | kFaceMinZ | kFaceMaxZ);
-  b.add_fitted_quad(Vec3(o.s0, d, o.t0), Vec3(o.s1, d, o.t0), Vec3(o.s1, d, o.t1), Vec3(o.s0, d, o.t1), m(MK::kDoorLeaf));
+  b.add_fitted_quad(Vec3(o.s0, d, o.t0), Vec3(o.s1, d, o.t0), Vec3(o.s1, d, o.t1), Vec3(o.s0, d, o.t1),
+                    m(MK::kDoorLeaf));
   // Architrave.
   b.add_box(Vec3(o.s0 - 0.08f, -0.02f, 0.f), Vec3(o.s0, 0.f, o.t1 + 0.08f), trim, kAllFaces & ~kFaceMaxY);
   b.add_box(Vec3(o.s1, -0.02f, 0.f), Vec3(o.s1 + 0.08f, 0.f, o.t1 + 0.08f), trim, kAllFaces & ~kFaceMaxY);
@@ -202,15 +203,15 @@ void add_sofa(SceneBuilder& b, MaterialLibrary& m, float length, int frame_fabri
     b.pop();
   }
   // Backrest leaning back by about 11 degrees.
-  b.push(tilt_x(Vec3(0.f, 0.33f, 0.3f), -0.2f));
+  b.push(tilt_x(Vec3(0.f, 0.24f, 0.3f), -0.2f));
   b.add_box(Vec3(-hl + 0.2f, -0.09f, 0.f), Vec3(hl - 0.2f, 0.09f, 0.52f), frame_fabric);
   b.pop();
   const int cushions = length > 1.7f ? 3 : 2;
   const float inner0 = -hl + 0.2f, width = (2.f * hl - 0.4f) / static_cast<float>(cushions);
   for (int k = 0; k < cushions; ++k) {
     const float x0 = inner0 + k * width + 0.005f, x1 = inner0 + (k + 1) * width - 0.005f;
-    b.add_box(Vec3(x0, -hd + 0.02f, 0.3f), Vec3(x1, 0.22f, 0.45f), cushion_fabric);
-    b.push(tilt_x(Vec3(0.f, 0.18f, 0.45f), -0.2f));
+    b.add_box(Vec3(x0, -hd + 0.02f, 0.3f), Vec3(x1, 0.16f, 0.45f), cushion_fabric);
+    b.push(tilt_x(Vec3(0.f, 0.1f, 0.45f), -0.2f));
     b.add_box(Vec3(x0, -0.07f, 0.f), Vec3(x1, 0.07f, 0.36f), cushion_fabric);
     b.pop();
   }
@@ -267,8 +268,8 @@ void add_dining_chair(SceneBuilder& b, MaterialLibrary& m, int seat_fabric) {
   const int wood = m(MK::kOakWood);
   for (float sx : {-1.f, 1.f}) {
     for (float sy : {-1.f, 1.f})
-      b.add_box(Vec3(sx * 0.19f - 0.018f, sy * 0.19f - 0.018f, 0.f), Vec3(sx * 0.19f + 0.018f, sy * 0.19f + 0.018f, 0.44f),
-                wood);
+      b.add_box(Vec3(sx * 0.19f - 0.018f, sy * 0.19f - 0.018f, 0.f),
+                Vec3(sx * 0.19f + 0.018f, sy * 0.19f + 0.018f, 0.44f), wood);
     // Back posts, leaning back slightly, and a side stretcher.
     b.add_rod(Vec3(sx * 0.19f, 0.19f, 0.44f), Vec3(sx * 0.19f, 0.245f, 0.92f), 0.016f, 12, wood);
     b.add_rod(Vec3(sx * 0.19f, -0.19f, 0.15f), Vec3(sx * 0.19f, 0.19f, 0.15f), 0.011f, 10, wood);
@@ -299,7 +300,7 @@ void add_office_chair(SceneBuilder& b, MaterialLibrary& m) {
 }
 
 void add_vase(SceneBuilder& b, int material, float height, float radius) {
-  static const float kProfile[][2] = {{0.55f, 0.f},  {0.85f, 0.12f}, {1.f, 0.35f},  {0.75f, 0.65f},
+  static const float kProfile[][2] = {{0.55f, 0.f},   {0.85f, 0.12f}, {1.f, 0.35f}, {0.75f, 0.65f},
                                       {0.45f, 0.85f}, {0.5f, 0.95f},  {0.58f, 1.f}};
   std::vector<Vec2> profile;
   for (const auto& p : kProfile) profile.emplace_back(p[0] * radius, p[1] * height);
@@ -337,8 +338,8 @@ void add_bookshelf(SceneBuilder& b, MaterialLibrary& m, RandomStream& rng, float
         const int count = rng.uniform_int(3, 5);
         for (int k = 0; k < count && z < z0 + clear - 0.05f; ++k) {
           const float t = draw(rng, 0.02f, 0.045f);
-          add_lying_book(b, m, x + draw(rng, 0.f, 0.02f), length, -hd + draw(rng, 0.005f, 0.03f), draw(rng, 0.15f, 0.2f),
-                         z, t, rng.uniform_int(0, 15));
+          add_lying_book(b, m, x + draw(rng, 0.f, 0.02f), length, -hd + draw(rng, 0.005f, 0.03f),
+                         draw(rng, 0.15f, 0.2f), z, t, rng.uniform_int(0, 15));
           z += t;
         }
         x += length + 0.04f;
@@ -373,7 +374,8 @@ void add_chest_of_drawers(SceneBuilder& b, MaterialLibrary& m, float width, floa
     b.add_box(Vec3(-hw + 0.02f, -hd - 0.015f, z0), Vec3(hw - 0.02f, -hd, z1), body_material);
     const float half = std::min(0.09f, 0.25f * width);
     b.add_rod(Vec3(-half, -hd - 0.045f, zc), Vec3(half, -hd - 0.045f, zc), 0.008f, 10, steel);
-    for (float x : {-half + 0.01f, half - 0.01f}) b.add_rod(Vec3(x, -hd - 0.015f, zc), Vec3(x, -hd - 0.045f, zc), 0.006f, 8, steel);
+    for (float x : {-half + 0.01f, half - 0.01f})
+      b.add_rod(Vec3(x, -hd - 0.015f, zc), Vec3(x, -hd - 0.045f, zc), 0.006f, 8, steel);
   }
 }
 
@@ -384,29 +386,33 @@ void add_floor_lamp(SceneBuilder& b, MaterialLibrary& m) {
 }
 
 void add_table_lamp(SceneBuilder& b, MaterialLibrary& m) {
-  b.add_lathe(Vec3::Zero(), {Vec2(0.07f, 0.f), Vec2(0.09f, 0.05f), Vec2(0.1f, 0.12f), Vec2(0.07f, 0.2f),
-                             Vec2(0.03f, 0.25f), Vec2(0.03f, 0.28f)},
+  b.add_lathe(Vec3::Zero(),
+              {Vec2(0.07f, 0.f), Vec2(0.09f, 0.05f), Vec2(0.1f, 0.12f), Vec2(0.07f, 0.2f), Vec2(0.03f, 0.25f),
+               Vec2(0.03f, 0.28f)},
               48, m(MK::kCeramicTiles));
   b.add_cylinder(Vec3(0.f, 0.f, 0.28f), 0.008f, 0.06f, 10, m(MK::kBrushedSteel));
   b.add_frustum(Vec3(0.f, 0.f, 0.32f), 0.17f, 0.1f, 0.2f, 64, m(MK::kLampshade));
 }
 
-void add_plant(SceneBuilder& b, MaterialLibrary& m, RandomStream& rng, float size) {
+void add_plant(SceneBuilder& b, MaterialLibrary& m, RandomStream& rng, float size, float max_reach) {
   const float s = size;
-  b.add_lathe(Vec3::Zero(), {Vec2(0.10f * s, 0.f), Vec2(0.14f * s, 0.26f * s), Vec2(0.16f * s, 0.26f * s),
-                             Vec2(0.16f * s, 0.3f * s)},
+  b.add_lathe(Vec3::Zero(),
+              {Vec2(0.10f * s, 0.f), Vec2(0.14f * s, 0.26f * s), Vec2(0.16f * s, 0.26f * s), Vec2(0.16f * s, 0.3f * s)},
               64, m(MK::kTerracotta));
   b.add_cylinder(Vec3(0.f, 0.f, 0.3f * s), 0.145f * s, 0.006f, 64, m(MK::kSoil));
   const int leaf = m(MK::kLeaf);
   const int stems = rng.uniform_int(6, 8);
   for (int k = 0; k < stems; ++k) {
     const float heading = 2.f * kPi * k / stems + draw(rng, -0.3f, 0.3f);
-    const float lean = draw(rng, 0.15f, 0.5f), length = draw(rng, 0.45f, 0.95f) * s;
+    const float length = draw(rng, 0.45f, 0.95f) * s, tip_leaf = draw(rng, 0.18f, 0.28f) * s;
+    // Lean no further than keeps every leaf within max_reach of the pot's axis (walls nearby).
+    const float lean_limit = std::asin(std::clamp((max_reach - 0.03f * s - 0.28f * s) / length, 0.05f, 0.48f));
+    const float lean = draw(rng, 0.15f, 0.5f) * lean_limit / 0.5f;
     const Vec3 base(0.03f * s * std::cos(heading), 0.03f * s * std::sin(heading), 0.3f * s);
-    const Vec3 tip = base + length * Vec3(std::sin(lean) * std::cos(heading), std::sin(lean) * std::sin(heading),
-                                          std::cos(lean));
+    const Vec3 tip =
+        base + length * Vec3(std::sin(lean) * std::cos(heading), std::sin(lean) * std::sin(heading), std::cos(lean));
     b.add_rod(base, tip, 0.007f * s, 8, leaf);
-    add_leaf(b, leaf, tip, heading + draw(rng, -0.4f, 0.4f), draw(rng, 0.2f, 0.6f), draw(rng, 0.18f, 0.28f) * s,
+    add_leaf(b, leaf, tip, heading + draw(rng, -0.4f, 0.4f), draw(rng, 0.2f, 0.6f), tip_leaf,
              draw(rng, 0.06f, 0.09f) * s);
     for (float t : {0.3f, 0.5f, 0.7f, 0.85f}) {
       const Vec3 at = base + t * (tip - base);
@@ -438,7 +444,8 @@ void add_keyboard_and_mouse(SceneBuilder& b, MaterialLibrary& m) {
 }
 
 void add_tv_unit(SceneBuilder& b, MaterialLibrary& m) {
-  const int walnut = m(MK::kWalnutWood), oak = m(MK::kOakWood), steel = m(MK::kBrushedSteel), plastic = m(MK::kDarkPlastic);
+  const int walnut = m(MK::kWalnutWood), oak = m(MK::kOakWood), steel = m(MK::kBrushedSteel),
+            plastic = m(MK::kDarkPlastic);
   for (float sx : {-1.f, 1.f})
     for (float sy : {-1.f, 1.f}) b.add_frustum(Vec3(sx * 0.74f, sy * 0.17f, 0.f), 0.02f, 0.015f, 0.1f, 16, steel);
   b.add_box(Vec3(-0.8f, -0.22f, 0.1f), Vec3(0.8f, 0.22f, 0.52f), walnut);
@@ -470,7 +477,8 @@ void add_radiator(SceneBuilder& b, MaterialLibrary& m, float width) {
   const int paint = m(MK::kTrimPaint), steel = m(MK::kBrushedSteel);
   const float hw = 0.5f * width;
   b.add_box(Vec3(-hw, -0.045f, 0.15f), Vec3(hw, -0.025f, 0.7f), paint);
-  for (float x = -hw; x + 0.03f <= hw + 1e-4f; x += 0.055f) b.add_box(Vec3(x, -0.1f, 0.12f), Vec3(x + 0.03f, -0.045f, 0.72f), paint);
+  for (float x = -hw; x + 0.03f <= hw + 1e-4f; x += 0.055f)
+    b.add_box(Vec3(x, -0.1f, 0.12f), Vec3(x + 0.03f, -0.045f, 0.72f), paint);
   for (float sx : {-1.f, 1.f}) {
     b.add_rod(Vec3(sx * (hw + 0.03f), -0.07f, 0.f), Vec3(sx * (hw + 0.03f), -0.07f, 0.2f), 0.012f, 12, steel);
     b.add_rod(Vec3(sx * (hw + 0.045f), -0.07f, 0.2f), Vec3(sx * (hw - 0.02f), -0.07f, 0.2f), 0.014f, 12, steel);

@@ -49,7 +49,9 @@ void add_chest_of_drawers(SceneBuilder& b, MaterialLibrary& m, float width, floa
                           int body_material);
 void add_floor_lamp(SceneBuilder& b, MaterialLibrary& m);
 void add_table_lamp(SceneBuilder& b, MaterialLibrary& m);
-void add_plant(SceneBuilder& b, MaterialLibrary& m, RandomStream& rng, float size);
+// A potted plant `size` times the standard one (pot 0.3 m high); no leaf reaches further than
+// max_reach from the pot's axis.
+void add_plant(SceneBuilder& b, MaterialLibrary& m, RandomStream& rng, float size, float max_reach);
 void add_monitor(SceneBuilder& b, MaterialLibrary& m, int screen_variant);
 void add_keyboard_and_mouse(SceneBuilder& b, MaterialLibrary& m);
 void add_tv_unit(SceneBuilder& b, MaterialLibrary& m);

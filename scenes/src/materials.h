@@ -21,10 +21,10 @@ enum class MaterialKind {
   kCofferedCeiling,
   kAcousticCeiling,
   // Fixtures.
-  kTrimPaint,      // skirting boards, door and window frames
-  kPlaster,        // window reveals
-  kOutdoorView,    // fitted: the view out of a window
-  kDoorLeaf,       // fitted
+  kTrimPaint,    // skirting boards, door and window frames
+  kPlaster,      // window reveals
+  kOutdoorView,  // fitted: the view out of a window
+  kDoorLeaf,     // fitted
   // Furniture.
   kOakWood,
   kWalnutWood,
@@ -35,7 +35,7 @@ enum class MaterialKind {
   kBrushedSteel,
   kDarkMetal,
   kDarkPlastic,
-  kBookSpines,     // fitted per book: one spine of the atlas
+  kBookSpines,  // fitted per book: one spine of the atlas
   kPaperEdges,
   kLeaf,
   kTerracotta,
@@ -43,12 +43,12 @@ enum class MaterialKind {
   kLampshade,
   kCeramicTiles,
   kMeshFabric,
-  kRug,            // fitted
-  kScreen,         // fitted, variant = which desktop
-  kTvPicture,      // fitted
-  kKeyboard,       // fitted
-  kWhiteboard,     // fitted
-  kPoster,         // fitted, variant = which poster
+  kRug,         // fitted
+  kScreen,      // fitted, variant = which desktop
+  kTvPicture,   // fitted
+  kKeyboard,    // fitted
+  kWhiteboard,  // fitted
+  kPoster,      // fitted, variant = which poster
 };
 
 class MaterialLibrary {

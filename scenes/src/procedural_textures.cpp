@@ -5,265 +5,13 @@
 #include <utility>
 #include <vector>
 
-#include "panoscan/core/random.h"
+#include "texture_canvas.h"
 
 namespace panoscan::scenes {
 
 namespace {
 
 constexpr float kPi = 3.14159265358979323846f;
-using Point = Eigen::Vector2f;
-
-// ---------------------------------------------------------------------------------------------
-// Periodic value noise: lattice values hashed from integer coordinates taken modulo the period, so
-// a texture whose noise coordinates span whole periods tiles without a seam.
-
-float lattice_value(int ix, int iy, int period_x, int period_y, std::uint64_t seed) {
-  ix %= period_x;
-  if (ix < 0) ix += period_x;
-  iy %= period_y;
-  if (iy < 0) iy += period_y;
-  const std::uint64_t h =
-      mix64(seed ^ (static_cast<std::uint64_t>(ix) * 0x9E3779B97F4A7C15ull) ^
-            (static_cast<std::uint64_t>(iy) * 0xC2B2AE3D27D4EB4Full));
-  return static_cast<float>(h >> 40) / static_cast<float>(1u << 24);
-}
-
-float smooth(float t) { return t * t * (3.f - 2.f * t); }
-
-// Noise in [0, 1] at (x, y) measured in lattice cells; periodic with (period_x, period_y) cells.
-float value_noise(float x, float y, int period_x, int period_y, std::uint64_t seed) {
-  const float fx = std::floor(x), fy = std::floor(y);
-  const int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
-  const float tx = smooth(x - fx), ty = smooth(y - fy);
-  const float v00 = lattice_value(ix, iy, period_x, period_y, seed);
-  const float v10 = lattice_value(ix + 1, iy, period_x, period_y, seed);
-  const float v01 = lattice_value(ix, iy + 1, period_x, period_y, seed);
-  const float v11 = lattice_value(ix + 1, iy + 1, period_x, period_y, seed);
-  return (v00 * (1.f - tx) + v10 * tx) * (1.f - ty) + (v01 * (1.f - tx) + v11 * tx) * ty;
-}
-
-// Fractal noise in [0, 1] at texture coordinates (u, v) in [0, 1): `cells_x` x `cells_y` lattice
-// cells across the texture at the coarsest octave, doubling per octave. Tiles over [0, 1).
-float fbm(float u, float v, int cells_x, int cells_y, int octaves, std::uint64_t seed) {
-  float sum = 0.f, amplitude = 1.f, norm = 0.f;
-  for (int o = 0; o < octaves; ++o) {
-    const int px = cells_x << o, py = cells_y << o;
-    sum += amplitude * value_noise(u * px, v * py, px, py, seed + 7919u * static_cast<unsigned>(o));
-    norm += amplitude;
-    amplitude *= 0.5f;
-  }
-  return sum / norm;
-}
-
-Colour hsv(float h, float s, float v) {
-  h = h - std::floor(h);
-  const float c = v * s;
-  const float hp = h * 6.f;
-  const float x = c * (1.f - std::abs(std::fmod(hp, 2.f) - 1.f));
-  Colour rgb;
-  if (hp < 1.f) rgb = Colour(c, x, 0.f);
-  else if (hp < 2.f) rgb = Colour(x, c, 0.f);
-  else if (hp < 3.f) rgb = Colour(0.f, c, x);
-  else if (hp < 4.f) rgb = Colour(0.f, x, c);
-  else if (hp < 5.f) rgb = Colour(x, 0.f, c);
-  else rgb = Colour(c, 0.f, x);
-  return rgb + Colour::Constant(v - c);
-}
-
-float luminance(const Colour& c) { return 0.299f * c.x() + 0.587f * c.y() + 0.114f * c.z(); }
-
-// Random draws for one texture: the stream is keyed by the texture's seed only.
-class Dice {
- public:
-  explicit Dice(std::uint64_t seed) : stream_(seed, 0, 0, RandomPurpose::kScene) {}
-  float uniform(float lo, float hi) { return static_cast<float>(stream_.uniform(lo, hi)); }
-  float unit() { return static_cast<float>(stream_.uniform()); }
-  int integer(int lo, int hi_inclusive) { return stream_.uniform_int(lo, hi_inclusive); }
-  bool chance(float p) { return stream_.uniform() < p; }
-  template <typename T>
-  const T& pick(const std::vector<T>& items) {
-    return items[static_cast<std::size_t>(integer(0, static_cast<int>(items.size()) - 1))];
-  }
-  Colour jitter(const Colour& c, float amount) {
-    return (c * uniform(1.f - amount, 1.f + amount)).cwiseMax(0.f).cwiseMin(1.f);
-  }
-
- private:
-  RandomStream stream_;
-};
-
-// ---------------------------------------------------------------------------------------------
-// A square float RGB canvas. Every shape wraps around the edges (so tiling textures stay seamless)
-// and is drawn with 2x2 supersampling, which softens the edges a little against aliasing.
-class Canvas {
- public:
-  Canvas(int size, const Colour& ground) : size_(size), pixels_(static_cast<std::size_t>(size) * size, ground) {}
-
-  int size() const { return size_; }
-  float sizef() const { return static_cast<float>(size_); }
-  Colour& at(int x, int y) { return pixels_[static_cast<std::size_t>(wrap(y)) * size_ + wrap(x)]; }
-
-  // Calls f(x, y, pixel) for every pixel.
-  template <typename F>
-  void each(F f) {
-    for (int y = 0; y < size_; ++y)
-      for (int x = 0; x < size_; ++x) f(x, y, pixels_[static_cast<std::size_t>(y) * size_ + x]);
-  }
-
-  // Paints `colour` over the part of box [x0, x1] x [y0, y1] where inside(x, y) holds.
-  template <typename Inside>
-  void fill(float x0, float y0, float x1, float y1, const Colour& colour, float alpha, Inside inside) {
-    const int ix0 = static_cast<int>(std::floor(x0)), ix1 = static_cast<int>(std::ceil(x1));
-    const int iy0 = static_cast<int>(std::floor(y0)), iy1 = static_cast<int>(std::ceil(y1));
-    static const float kSub[2] = {0.25f, 0.75f};
-    for (int y = iy0; y < iy1; ++y)
-      for (int x = ix0; x < ix1; ++x) {
-        int covered = 0;
-        for (float sy : kSub)
-          for (float sx : kSub) covered += inside(x + sx, y + sy) ? 1 : 0;
-        if (covered == 0) continue;
-        const float a = alpha * 0.25f * static_cast<float>(covered);
-        Colour& p = at(x, y);
-        p = p * (1.f - a) + colour * a;
-      }
-  }
-
-  void rect(float x0, float y0, float x1, float y1, const Colour& colour, float alpha = 1.f) {
-    fill(x0, y0, x1, y1, colour, alpha,
-         [&](float x, float y) { return x >= x0 && x < x1 && y >= y0 && y < y1; });
-  }
-  // Outline of a rectangle, `width` pixels wide, inside the rectangle.
-  void frame(float x0, float y0, float x1, float y1, float width, const Colour& colour, float alpha = 1.f) {
-    rect(x0, y0, x1, y0 + width, colour, alpha);
-    rect(x0, y1 - width, x1, y1, colour, alpha);
-    rect(x0, y0 + width, x0 + width, y1 - width, colour, alpha);
-    rect(x1 - width, y0 + width, x1, y1 - width, colour, alpha);
-  }
-  void ellipse(float cx, float cy, float rx, float ry, float angle, const Colour& colour, float alpha = 1.f) {
-    const float c = std::cos(angle), s = std::sin(angle), r = std::max(rx, ry);
-    fill(cx - r, cy - r, cx + r, cy + r, colour, alpha, [&](float x, float y) {
-      const float dx = x - cx, dy = y - cy;
-      const float a = (c * dx + s * dy) / rx, b = (-s * dx + c * dy) / ry;
-      return a * a + b * b <= 1.f;
-    });
-  }
-  void disc(float cx, float cy, float r, const Colour& colour, float alpha = 1.f) {
-    ellipse(cx, cy, r, r, 0.f, colour, alpha);
-  }
-  void ring(float cx, float cy, float r_in, float r_out, const Colour& colour, float alpha = 1.f) {
-    fill(cx - r_out, cy - r_out, cx + r_out, cy + r_out, colour, alpha, [&](float x, float y) {
-      const float d2 = (x - cx) * (x - cx) + (y - cy) * (y - cy);
-      return d2 <= r_out * r_out && d2 >= r_in * r_in;
-    });
-  }
-  // Convex polygon, either winding.
-  void polygon(const std::vector<Point>& points, const Colour& colour, float alpha = 1.f) {
-    Point lo = points[0], hi = points[0];
-    for (const Point& p : points) {
-      lo = lo.cwiseMin(p);
-      hi = hi.cwiseMax(p);
-    }
-    fill(lo.x(), lo.y(), hi.x(), hi.y(), colour, alpha, [&](float x, float y) {
-      bool has_positive = false, has_negative = false;
-      for (std::size_t i = 0; i < points.size(); ++i) {
-        const Point& a = points[i];
-        const Point& b = points[(i + 1) % points.size()];
-        const float side = (b.x() - a.x()) * (y - a.y()) - (b.y() - a.y()) * (x - a.x());
-        if (side > 0.f) has_positive = true;
-        if (side < 0.f) has_negative = true;
-      }
-      return !(has_positive && has_negative);
-    });
-  }
-  void line(float x0, float y0, float x1, float y1, float width, const Colour& colour, float alpha = 1.f) {
-    const float half = 0.5f * width;
-    const Point a(x0, y0), b(x1, y1), d = b - a;
-    const float length2 = std::max(d.squaredNorm(), 1e-6f);
-    fill(std::min(x0, x1) - half, std::min(y0, y1) - half, std::max(x0, x1) + half, std::max(y0, y1) + half, colour,
-         alpha, [&](float x, float y) {
-           const Point p(x, y);
-           const float t = std::clamp((p - a).dot(d) / length2, 0.f, 1.f);
-           return (p - (a + t * d)).squaredNorm() <= half * half;
-         });
-  }
-  void polyline(const std::vector<Point>& points, float width, const Colour& colour, float alpha = 1.f) {
-    for (std::size_t i = 0; i + 1 < points.size(); ++i)
-      line(points[i].x(), points[i].y(), points[i + 1].x(), points[i + 1].y(), width, colour, alpha);
-  }
-
-  // Multiplies every pixel by 1 + amplitude * (2 * noise - 1): uneven paint, dye, wear.
-  void modulate(int cells, int octaves, float amplitude, std::uint64_t seed) {
-    const float inv = 1.f / sizef();
-    each([&](int x, int y, Colour& p) {
-      const float n = fbm((x + 0.5f) * inv, (y + 0.5f) * inv, cells, cells, octaves, seed);
-      p *= 1.f + amplitude * (2.f * n - 1.f);
-    });
-  }
-
-  Texture to_texture(const std::string& name) const {
-    Texture texture;
-    texture.name = name;
-    texture.width = size_;
-    texture.height = size_;
-    texture.rgb.resize(static_cast<std::size_t>(size_) * size_ * 3);
-    for (std::size_t i = 0; i < pixels_.size(); ++i)
-      for (int c = 0; c < 3; ++c)
-        texture.rgb[3 * i + c] =
-            static_cast<std::uint8_t>(std::lround(255.f * std::clamp(pixels_[i][c], 0.f, 1.f)));
-    return texture;
-  }
-
- private:
-  int wrap(int v) const {
-    v %= size_;
-    return v < 0 ? v + size_ : v;
-  }
-  int size_;
-  std::vector<Colour> pixels_;
-};
-
-// Text-like marks on one line: words of glyphs, each glyph one to three strokes, so that they read
-// as print from a distance and give corners up close.
-void text_line(Canvas& canvas, Dice& dice, float x, float y, float width, float height, const Colour& ink) {
-  const float glyph_width = 0.62f * height, stroke = std::max(1.5f, 0.16f * height);
-  float cursor = x;
-  while (cursor < x + width - glyph_width) {
-    const int letters = dice.integer(2, 8);
-    for (int k = 0; k < letters && cursor < x + width - glyph_width; ++k) {
-      const float gx = cursor, gy = y;
-      switch (dice.integer(0, 5)) {
-        case 0:  // vertical bar with a foot
-          canvas.rect(gx, gy, gx + stroke, gy + height, ink);
-          canvas.rect(gx, gy + height - stroke, gx + glyph_width * 0.8f, gy + height, ink);
-          break;
-        case 1:  // ring
-          canvas.ring(gx + glyph_width * 0.45f, gy + height * 0.6f, glyph_width * 0.45f - stroke,
-                      glyph_width * 0.45f, ink);
-          break;
-        case 2:  // two bars and a cross stroke
-          canvas.rect(gx, gy, gx + stroke, gy + height, ink);
-          canvas.rect(gx + glyph_width * 0.7f, gy, gx + glyph_width * 0.7f + stroke, gy + height, ink);
-          canvas.rect(gx, gy + height * 0.45f, gx + glyph_width * 0.7f, gy + height * 0.45f + stroke, ink);
-          break;
-        case 3:  // diagonal
-          canvas.line(gx, gy + height, gx + glyph_width * 0.8f, gy, stroke, ink);
-          break;
-        case 4:  // short letter
-          canvas.rect(gx, gy + height * 0.4f, gx + glyph_width * 0.8f, gy + height * 0.4f + stroke, ink);
-          canvas.rect(gx, gy + height * 0.4f, gx + stroke, gy + height, ink);
-          break;
-        default:  // block
-          canvas.rect(gx, gy + height * 0.35f, gx + glyph_width * 0.7f, gy + height, ink);
-          break;
-      }
-      cursor += glyph_width + stroke;
-    }
-    cursor += glyph_width * 1.2f;  // space between words
-  }
-}
-
-// ---------------------------------------------------------------------------------------------
 
 }  // namespace
 
@@ -273,6 +21,7 @@ Texture parquet_texture(const std::string& name, int size, std::uint64_t seed) {
   const int cell = size / 8, plank = cell / 4;
   const Colour light(0.80f, 0.62f, 0.40f), dark(0.42f, 0.26f, 0.13f);
   const float inv = 1.f / canvas.sizef();
+  const Fbm along_x(8, 32, 3, seed + 11), along_y(32, 8, 3, seed + 11);
   for (int cy = 0; cy < size / cell; ++cy)
     for (int cx = 0; cx < size / cell; ++cx) {
       const bool horizontal = (cx + cy) % 2 == 0;
@@ -285,8 +34,7 @@ Texture parquet_texture(const std::string& name, int size, std::uint64_t seed) {
           for (int x = x0; x < x0 + w; ++x) {
             // Grain runs along the plank: growth rings are stripes across it, warped by noise.
             const float along = horizontal ? x : y, across = horizontal ? y : x;
-            const float warp = 7.f * fbm((x + 0.5f) * inv, (y + 0.5f) * inv, horizontal ? 8 : 32,
-                                         horizontal ? 32 : 8, 3, seed + 11);
+            const float warp = 7.f * (horizontal ? along_x : along_y)((x + 0.5f) * inv, (y + 0.5f) * inv);
             const float ring = std::fmod(across * 0.45f + warp + phase + 0.02f * along, 5.5f) / 5.5f;
             const float grain = ring < 0.22f ? 0.72f : 1.f;
             canvas.at(x, y) = base * brightness * grain;
@@ -451,7 +199,8 @@ Texture coffered_ceiling_texture(const std::string& name, int size, std::uint64_
       canvas.frame(x0 + 40.f * s, y0 + 40.f * s, x1 - 40.f * s, y1 - 40.f * s, 4.f * s, line_ink);
       // Corner blocks with a dot.
       for (int corner = 0; corner < 4; ++corner) {
-        const float bx = (corner % 2) ? x1 - 64.f * s : x0 + 40.f * s, by = (corner / 2) ? y1 - 64.f * s : y0 + 40.f * s;
+        const float bx = (corner % 2) ? x1 - 64.f * s : x0 + 40.f * s,
+                    by = (corner / 2) ? y1 - 64.f * s : y0 + 40.f * s;
         canvas.rect(bx, by, bx + 24.f * s, by + 24.f * s, rosette_ink);
         canvas.disc(bx + 12.f * s, by + 12.f * s, 5.f * s, base);
       }
@@ -471,8 +220,9 @@ Texture coffered_ceiling_texture(const std::string& name, int size, std::uint64_
     }
   // Water stains: low-frequency blotches.
   const float inv = 1.f / canvas.sizef();
+  const Fbm stains(4, 4, 4, seed + 23);
   canvas.each([&](int x, int y, Colour& p) {
-    const float n = fbm((x + 0.5f) * inv, (y + 0.5f) * inv, 4, 4, 4, seed + 23);
+    const float n = stains((x + 0.5f) * inv, (y + 0.5f) * inv);
     if (n > 0.62f) p = p.cwiseProduct(Colour(0.86f, 0.80f, 0.70f));
   });
   canvas.modulate(32, 3, 0.04f, seed + 29);
@@ -492,8 +242,8 @@ Texture acoustic_ceiling_texture(const std::string& name, int size, std::uint64_
         const float cx = x0 + dice.uniform(0.f, tile), cy = y0 + dice.uniform(0.f, tile);
         const float a = dice.uniform(0.f, kPi), half = dice.uniform(3.f, 11.f) * s;
         const float grey = dice.uniform(0.28f, 0.5f);
-        canvas.line(cx - std::cos(a) * half, cy - std::sin(a) * half, cx + std::cos(a) * half,
-                    cy + std::sin(a) * half, dice.uniform(2.f, 3.5f) * s, Colour(grey, grey * 0.98f, grey * 0.95f));
+        canvas.line(cx - std::cos(a) * half, cy - std::sin(a) * half, cx + std::cos(a) * half, cy + std::sin(a) * half,
+                    dice.uniform(2.f, 3.5f) * s, Colour(grey, grey * 0.98f, grey * 0.95f));
       }
       const int pinholes = static_cast<int>(120 * s * s);
       for (int i = 0; i < pinholes; ++i)
@@ -549,6 +299,7 @@ Texture wood_texture(const std::string& name, int size, std::uint64_t seed, cons
   Dice dice(seed);
   Canvas canvas(size, light);
   const float inv = 1.f / canvas.sizef();
+  const Fbm grain_warp(4, 16, 3, seed + 41);
   // Boards across v, each with its own tone, grain phase, end joints and knots.
   float y = 0.f;
   while (y < canvas.sizef()) {
@@ -558,7 +309,7 @@ Texture wood_texture(const std::string& name, int size, std::uint64_t seed, cons
     const int y0 = static_cast<int>(y), y1 = static_cast<int>(y + board);
     for (int py = y0; py < y1; ++py)
       for (int px = 0; px < canvas.size(); ++px) {
-        const float warp = 9.f * fbm((px + 0.5f) * inv, (py + 0.5f) * inv, 4, 16, 3, seed + 41);
+        const float warp = 9.f * grain_warp((px + 0.5f) * inv, (py + 0.5f) * inv);
         const float ring = std::fmod(py * 0.5f + warp + phase, 7.f) / 7.f;
         const float grain = ring < 0.3f ? 0.6f + ring : 1.f;
         canvas.at(px, py) = tone * grain;
@@ -706,8 +457,9 @@ Texture brushed_metal_texture(const std::string& name, int size, std::uint64_t s
   Dice dice(seed);
   Canvas canvas(size, tint);
   const float inv = 1.f / canvas.sizef();
+  const Fbm streaks(2, 128, 2, seed + 71);
   canvas.each([&](int x, int y, Colour& p) {
-    const float streak = fbm((x + 0.5f) * inv, (y + 0.5f) * inv, 2, 128, 2, seed + 71);
+    const float streak = streaks((x + 0.5f) * inv, (y + 0.5f) * inv);
     p = tint * (0.8f + 0.35f * streak);
   });
   for (int i = 0; i < 60; ++i) {
@@ -741,10 +493,13 @@ Texture plaster_texture(const std::string& name, int size, std::uint64_t seed, c
   Dice dice(seed);
   Canvas canvas(size, paint);
   const float inv = 1.f / canvas.sizef();
+  const Fbm stains(4, 4, 4, seed + 79);
   canvas.each([&](int x, int y, Colour& p) {
-    const float stain = fbm((x + 0.5f) * inv, (y + 0.5f) * inv, 4, 4, 4, seed + 79);
-    if (stain > 0.6f) p = p.cwiseProduct(Colour(0.78f, 0.72f, 0.62f));
-    else if (stain > 0.56f) p = p.cwiseProduct(Colour(0.6f, 0.55f, 0.48f));  // tide mark at the edge
+    const float stain = stains((x + 0.5f) * inv, (y + 0.5f) * inv);
+    if (stain > 0.6f)
+      p = p.cwiseProduct(Colour(0.78f, 0.72f, 0.62f));
+    else if (stain > 0.56f)
+      p = p.cwiseProduct(Colour(0.6f, 0.55f, 0.48f));  // tide mark at the edge
   });
   // Brush marks: short streaks a little lighter or darker than the paint.
   for (int i = 0; i < size * size / 400; ++i) {
@@ -806,7 +561,8 @@ Texture terracotta_texture(const std::string& name, int size, std::uint64_t seed
   canvas.rect(0.f, band0 - 6.f, s, band0, Colour(0.25f, 0.12f, 0.06f));
   canvas.rect(0.f, band1, s, band1 + 6.f, Colour(0.25f, 0.12f, 0.06f));
   for (int i = 0; i < 30; ++i)
-    canvas.disc(dice.uniform(0.f, s), dice.uniform(0.f, band0 - 8.f), dice.uniform(1.5f, 3.f), Colour(0.5f, 0.25f, 0.14f));
+    canvas.disc(dice.uniform(0.f, s), dice.uniform(0.f, band0 - 8.f), dice.uniform(1.5f, 3.f),
+                Colour(0.5f, 0.25f, 0.14f));
   return canvas.to_texture(name);
 }
 
@@ -863,22 +619,31 @@ Texture poster_texture(const std::string& name, int size, std::uint64_t seed) {
   // Blobs: thresholded noise over the whole sheet.
   const float inv = 1.f / s;
   const Colour blob = dice.pick(palette);
-  const std::uint64_t blob_seed = seed + 103;
+  const Fbm blobs(3, 3, 3, seed + 103);
   canvas.each([&](int x, int y, Colour& p) {
-    if (fbm((x + 0.5f) * inv, (y + 0.5f) * inv, 3, 3, 3, blob_seed) > 0.6f) p = blob;
+    if (blobs((x + 0.5f) * inv, (y + 0.5f) * inv) > 0.6f) p = blob;
   });
   for (int i = 0; i < dice.integer(2, 4); ++i) {  // bold stripes
     const float y = dice.uniform(0.1f, 0.8f) * s, h = dice.uniform(0.02f, 0.06f) * s;
     canvas.rect(0.f, y, s, y + h, dice.pick(palette));
   }
   for (int i = 0; i < dice.integer(4, 8); ++i) {  // shapes
-    const float x = dice.uniform(0.1f, 0.9f) * s, y = dice.uniform(0.15f, 0.75f) * s, r = dice.uniform(0.04f, 0.15f) * s;
+    const float x = dice.uniform(0.1f, 0.9f) * s, y = dice.uniform(0.15f, 0.75f) * s,
+                r = dice.uniform(0.04f, 0.15f) * s;
     const Colour c = dice.pick(palette);
     switch (dice.integer(0, 3)) {
-      case 0: canvas.disc(x, y, r, c); break;
-      case 1: canvas.rect(x - r, y - 0.7f * r, x + r, y + 0.7f * r, c); break;
-      case 2: canvas.polygon({Point(x - r, y + r), Point(x + r, y + r), Point(x, y - r)}, c); break;
-      default: canvas.ring(x, y, 0.6f * r, r, c); break;
+      case 0:
+        canvas.disc(x, y, r, c);
+        break;
+      case 1:
+        canvas.rect(x - r, y - 0.7f * r, x + r, y + 0.7f * r, c);
+        break;
+      case 2:
+        canvas.polygon({Point(x - r, y + r), Point(x + r, y + r), Point(x, y - r)}, c);
+        break;
+      default:
+        canvas.ring(x, y, 0.6f * r, r, c);
+        break;
     }
   }
   // Title and body text.
@@ -897,8 +662,9 @@ Texture screen_texture(const std::string& name, int size, std::uint64_t seed) {
   Canvas canvas(size, Colour(0.1f, 0.3f, 0.5f));
   const float s = canvas.sizef(), inv = 1.f / s;
   const float hue = dice.unit();
+  const Fbm wallpaper(2, 2, 3, seed + 107);
   canvas.each([&](int x, int y, Colour& p) {
-    const float n = fbm((x + 0.5f) * inv, (y + 0.5f) * inv, 2, 2, 3, seed + 107);
+    const float n = wallpaper((x + 0.5f) * inv, (y + 0.5f) * inv);
     p = hsv(hue + 0.2f * n, 0.6f, 0.25f + 0.5f * n);
   });
   for (int i = 0; i < 6; ++i) {  // desktop icons with labels
@@ -949,7 +715,8 @@ Texture tv_picture_texture(const std::string& name, int size, std::uint64_t seed
     const float base = (0.45f + 0.12f * layer) * s, amplitude = 0.06f * s, phase = dice.uniform(0.f, 6.f);
     const Colour colour = Colour(0.15f, 0.35f - 0.07f * layer, 0.2f) * (1.2f - 0.2f * layer);
     for (int x = 0; x < size; ++x) {
-      const float top = base + amplitude * std::sin(phase + 6.f * x / s) + 0.5f * amplitude * std::sin(phase * 2.f + 17.f * x / s);
+      const float top =
+          base + amplitude * std::sin(phase + 6.f * x / s) + 0.5f * amplitude * std::sin(phase * 2.f + 17.f * x / s);
       canvas.rect(x, top, x + 1, s, colour);
     }
   }
@@ -985,9 +752,10 @@ Texture outdoor_view_texture(const std::string& name, int size, std::uint64_t se
   float x = -0.05f * s;
   while (x < s) {
     const float w = dice.uniform(0.12f, 0.3f) * s, top = dice.uniform(0.15f, 0.45f) * s;
-    const Colour facade = dice.jitter(dice.pick(std::vector<Colour>{Colour(0.75f, 0.7f, 0.62f), Colour(0.55f, 0.5f, 0.48f),
-                                                                     Colour(0.7f, 0.45f, 0.35f), Colour(0.85f, 0.83f, 0.8f)}),
-                                      0.1f);
+    const Colour facade =
+        dice.jitter(dice.pick(std::vector<Colour>{Colour(0.75f, 0.7f, 0.62f), Colour(0.55f, 0.5f, 0.48f),
+                                                  Colour(0.7f, 0.45f, 0.35f), Colour(0.85f, 0.83f, 0.8f)}),
+                    0.1f);
     canvas.rect(x, top, x + w, s, facade);
     canvas.rect(x, top, x + w, top + 0.015f * s, facade * 0.6f);
     const float pane = 0.03f * s, gap = 0.022f * s;
@@ -1088,8 +856,8 @@ Texture whiteboard_texture(const std::string& name, int size, std::uint64_t seed
   Dice dice(seed);
   Canvas canvas(size, Colour(0.95f, 0.95f, 0.94f));
   const float s = canvas.sizef();
-  const std::vector<Colour> markers = {Colour(0.05f, 0.05f, 0.08f), Colour(0.1f, 0.2f, 0.7f),
-                                       Colour(0.75f, 0.1f, 0.1f), Colour(0.1f, 0.5f, 0.2f)};
+  const std::vector<Colour> markers = {Colour(0.05f, 0.05f, 0.08f), Colour(0.1f, 0.2f, 0.7f), Colour(0.75f, 0.1f, 0.1f),
+                                       Colour(0.1f, 0.5f, 0.2f)};
   std::vector<Point> box_centres;
   for (int i = 0; i < 6; ++i) {  // boxes with text, joined by arrows
     const Colour ink = dice.pick(markers);
@@ -1107,7 +875,8 @@ Texture whiteboard_texture(const std::string& name, int size, std::uint64_t seed
     canvas.polygon({b, Point(b - 14.f * d + 7.f * n), Point(b - 14.f * d - 7.f * n)}, markers[0]);
   }
   for (int i = 0; i < 3; ++i)
-    canvas.ring(dice.uniform(0.1f, 0.9f) * s, dice.uniform(0.1f, 0.9f) * s, 0.04f * s, 0.04f * s + 3.f, dice.pick(markers));
+    canvas.ring(dice.uniform(0.1f, 0.9f) * s, dice.uniform(0.1f, 0.9f) * s, 0.04f * s, 0.04f * s + 3.f,
+                dice.pick(markers));
   for (int i = 0; i < 5; ++i)  // handwriting
     text_line(canvas, dice, 0.05f * s, (0.82f + 0.03f * i) * s, 0.6f * s, 0.02f * s, dice.pick(markers));
   return canvas.to_texture(name);

@@ -10,16 +10,15 @@
 // around the edges and the noise is periodic. Every generator is deterministic in its seed.
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
-
-#include <Eigen/Core>
 
 #include "panoscan/core/mesh.h"
 
 namespace panoscan::scenes {
 
-using Colour = Eigen::Vector3f;  // sRGB-ish in [0, 1]
+using Colour = Eigen::Vector3f;  // sRGB-ish in [0, 1] (also declared in texture_canvas.h)
 
 // --- Room shells (tiling, 1024 px) ---
 // Basket-weave parquet: squares of four planks, alternating direction, with grain, gaps and knots.

@@ -264,8 +264,7 @@ void SceneBuilder::add_prism(const std::vector<Vec2>& profile_yz, float x0, floa
   add_polygon_facing(cap_high, Vec3::UnitX(), material);
 }
 
-void SceneBuilder::add_swept_slab(const std::vector<Vec2>& path_xy, float thickness, float z0, float z1,
-                                  int material) {
+void SceneBuilder::add_swept_slab(const std::vector<Vec2>& path_xy, float thickness, float z0, float z1, int material) {
   const std::size_t n = path_xy.size();
   if (n < 2) return;
   const float inv_tile = 1.f / tile_size(material);
@@ -299,8 +298,7 @@ void SceneBuilder::add_swept_slab(const std::vector<Vec2>& path_xy, float thickn
       const std::vector<Vec2>& rail = side == 0 ? right : left;
       const Vec3 outward = side == 0 ? out_right : Vec3(-out_right);
       std::vector<Vec3> quad = {at(rail[k], z0), at(rail[k + 1], z0), at(rail[k + 1], z1), at(rail[k], z1)};
-      std::vector<Vec2> uvs = {Vec2(along, z0), Vec2(along + length, z0), Vec2(along + length, z1),
-                               Vec2(along, z1)};
+      std::vector<Vec2> uvs = {Vec2(along, z0), Vec2(along + length, z0), Vec2(along + length, z1), Vec2(along, z1)};
       for (Vec2& t : uvs) t *= inv_tile;
       if (polygon_normal(quad).dot(outward) < 0.f) {
         std::reverse(quad.begin(), quad.end());
@@ -309,10 +307,10 @@ void SceneBuilder::add_swept_slab(const std::vector<Vec2>& path_xy, float thickn
       emit_triangle(quad[0], quad[1], quad[2], uvs[0], uvs[1], uvs[2], material);
       emit_triangle(quad[0], quad[2], quad[3], uvs[0], uvs[2], uvs[3], material);
     }
-    add_polygon_facing({at(left[k], z1), at(right[k], z1), at(right[k + 1], z1), at(left[k + 1], z1)},
-                       Vec3::UnitZ(), material);
-    add_polygon_facing({at(left[k], z0), at(right[k], z0), at(right[k + 1], z0), at(left[k + 1], z0)},
-                       -Vec3::UnitZ(), material);
+    add_polygon_facing({at(left[k], z1), at(right[k], z1), at(right[k + 1], z1), at(left[k + 1], z1)}, Vec3::UnitZ(),
+                       material);
+    add_polygon_facing({at(left[k], z0), at(right[k], z0), at(right[k + 1], z0), at(left[k + 1], z0)}, -Vec3::UnitZ(),
+                       material);
     along += length;
   }
   const Vec2 d_start = (path_xy[1] - path_xy[0]).normalized();
@@ -323,8 +321,8 @@ void SceneBuilder::add_swept_slab(const std::vector<Vec2>& path_xy, float thickn
                      Vec3(d_end.x(), d_end.y(), 0.f), material);
 }
 
-void SceneBuilder::add_wall(const Vec2& start, const Vec2& end, float height,
-                            const std::vector<WallOpening>& openings, int material) {
+void SceneBuilder::add_wall(const Vec2& start, const Vec2& end, float height, const std::vector<WallOpening>& openings,
+                            int material) {
   const float length = (end - start).norm();
   if (length <= 0.f) return;
   const Vec2 direction = (end - start) / length;
@@ -359,9 +357,7 @@ namespace {
 
 struct PositionKey {
   float x, y, z;
-  bool operator==(const PositionKey& other) const {
-    return std::memcmp(this, &other, sizeof(PositionKey)) == 0;
-  }
+  bool operator==(const PositionKey& other) const { return std::memcmp(this, &other, sizeof(PositionKey)) == 0; }
 };
 struct PositionKeyHash {
   std::size_t operator()(const PositionKey& key) const {

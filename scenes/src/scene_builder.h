@@ -11,11 +11,10 @@
 // coordinates are taken in the local frame, so a texture turns with the object it is painted on.
 #pragma once
 
-#include <string>
-#include <vector>
-
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <string>
+#include <vector>
 
 #include "panoscan/core/mesh.h"
 
@@ -56,8 +55,7 @@ class SceneBuilder {
   // Returns the index of the texture.
   int add_texture(Texture texture);
   // Returns the material index. tile_size_m: metres covered by one repeat of the texture.
-  int add_material(const std::string& name, int texture, float tile_size_m,
-                   const Vec3& albedo = Vec3(1.f, 1.f, 1.f));
+  int add_material(const std::string& name, int texture, float tile_size_m, const Vec3& albedo = Vec3(1.f, 1.f, 1.f));
 
   // Local frame stack: push(parent_from_child) makes child the current frame.
   void push(const Pose3& parent_from_child);
@@ -110,7 +108,7 @@ class SceneBuilder {
 
   // A wall of the room shell, seen from inside: it runs from `start` to `end` (floor points, z = 0),
   // `end` lying to the right of a viewer inside the room facing it, from z = 0 to `height`, with
-  // rectangular holes. Returns nothing; recesses behind openings are added separately.
+  // rectangular holes (the recesses that close them are separate: see add_window, add_door).
   void add_wall(const Vec2& start, const Vec2& end, float height, const std::vector<WallOpening>& openings,
                 int material);
 
@@ -121,8 +119,8 @@ class SceneBuilder {
 
  private:
   // Adds one triangle given in the local frame with its texture coordinates.
-  void emit_triangle(const Vec3& a, const Vec3& b, const Vec3& c, const Vec2& uv_a, const Vec2& uv_b,
-                     const Vec2& uv_c, int material);
+  void emit_triangle(const Vec3& a, const Vec3& b, const Vec3& c, const Vec2& uv_a, const Vec2& uv_b, const Vec2& uv_c,
+                     int material);
   float tile_size(int material) const;
 
   Scene scene_;

@@ -1,19 +1,19 @@
 #include "panoscan/sim/scene_loader.h"
 
+#include <assimp/material.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <assimp/Importer.hpp>
 #include <atomic>
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <assimp/Importer.hpp>
-#include <assimp/material.h>
-#include <assimp/postprocess.h>
-#include <assimp/scene.h>
-#include <nlohmann/json.hpp>
-#include <unistd.h>
 
 #include "panoscan/core/error.h"
 #include "panoscan/core/image_io.h"
@@ -128,7 +128,8 @@ void read_positions_file(const fs::path& path, Scene& scene) {
       position.start_heading_rad =
           json_number(entry["start_heading_deg"], file, field + ".start_heading_deg") * 3.14159265358979323846 / 180.0;
     for (const ScanPosition& earlier : scene.positions)
-      if (earlier.name == position.name) throw make_error(file, field + ".name", "duplicate name '" + position.name + "'");
+      if (earlier.name == position.name)
+        throw make_error(file, field + ".name", "duplicate name '" + position.name + "'");
     scene.positions.push_back(position);
   }
   if (document.contains("lights")) {
@@ -162,13 +163,14 @@ Scene load_scene_file(const fs::path& path) {
   const fs::path shared = folder / "positions.json";
   const fs::path positions_file = fs::is_regular_file(beside, ec) ? beside : shared;
   if (!fs::is_regular_file(positions_file, ec))
-    throw make_error(file, "positions", "no positions file: expected " + beside.string() + " (or " + shared.string() + ")");
+    throw make_error(file, "positions",
+                     "no positions file: expected " + beside.string() + " (or " + shared.string() + ")");
 
   Assimp::Importer importer;
   // Points and lines carry no surface: drop them after triangulation.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const unsigned flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices |
-                         aiProcess_SortByPType;
+  const unsigned flags =
+      aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices | aiProcess_SortByPType;
   const aiScene* imported = importer.ReadFile(file, flags);
   if (!imported) throw make_error(file, "", std::string("assimp cannot read it: ") + importer.GetErrorString());
 
@@ -247,7 +249,8 @@ Scene load_scene_file(const fs::path& path) {
     for (unsigned f = 0; f < source.mNumFaces; ++f) {
       const aiFace& face = source.mFaces[f];
       if (face.mNumIndices != 3) continue;
-      mesh.triangles.emplace_back(first + static_cast<int>(face.mIndices[0]), first + static_cast<int>(face.mIndices[1]),
+      mesh.triangles.emplace_back(first + static_cast<int>(face.mIndices[0]),
+                                  first + static_cast<int>(face.mIndices[1]),
                                   first + static_cast<int>(face.mIndices[2]));
       for (int k = 0; k < 3; ++k) {
         if (has_uvs) {
