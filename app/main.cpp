@@ -1,5 +1,6 @@
 // The panoscan command-line program: parses arguments, calls the libraries, reports.
 // No algorithm lives here. Errors are exceptions, caught once below and printed on one line.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -13,6 +14,9 @@
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
+#include "panoscan/eval/cloud_evaluation.h"
+#include "panoscan/eval/report.h"
+#include "panoscan/eval/trajectory_evaluation.h"
 #include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/scene_loader.h"
 #include "panoscan/sim/simulator.h"
@@ -119,6 +123,56 @@ void run_sim(const SimArguments& a, const std::vector<std::string>& defaults) {
                            directory_size(a.out) / 1e6);
 }
 
+Config load_config(const std::string& file, const std::vector<std::string>& overrides) {
+  Config config = file.empty() ? Config() : Config::load_file(file);
+  for (const auto& o : overrides) config.apply_override(o);
+  return config;
+}
+
+struct EvalCloudArguments {
+  std::string mesh, cloud, scan, coloured_ply, json, config_file;
+  std::vector<std::string> viewpoints_from, overrides;
+  int threads = -1;
+};
+
+void run_eval_cloud(const EvalCloudArguments& a) {
+  std::string mesh = a.mesh;
+  std::vector<fs::path> viewpoints(a.viewpoints_from.begin(), a.viewpoints_from.end());
+  if (!a.scan.empty()) {
+    // A simulated scan brings its ground truth: the mesh and the camera trajectories (viewpoints).
+    const fs::path truth = fs::path(a.scan) / "groundtruth";
+    if (mesh.empty()) mesh = (truth / "mesh.ply").string();
+    if (viewpoints.empty() && fs::is_directory(truth))
+      for (const auto& entry : fs::directory_iterator(truth))
+        if (entry.path().extension() == ".txt") viewpoints.push_back(entry.path());
+    std::sort(viewpoints.begin(), viewpoints.end());
+  }
+  if (mesh.empty()) throw make_error("--mesh", "", "a ground-truth mesh is required (--mesh or --scan)");
+  Config config = load_config(a.config_file, a.overrides);
+  eval::CloudEvalOptions options = eval::cloud_eval_options_from_config(config);
+  config.check_all_used();
+  options.viewpoint_trajectories = viewpoints;
+  options.coloured_ply = a.coloured_ply;
+  if (a.threads >= 0) options.threads = a.threads;
+  const eval::CloudEvalReport report = eval::evaluate_cloud_files(mesh, a.cloud, options);
+  std::cout << eval::cloud_report_to_text(report);
+  if (!a.json.empty()) eval::write_report(a.json, eval::cloud_report_to_json(report));
+}
+
+struct EvalTrajArguments {
+  std::string gt, est, json, config_file;
+  std::vector<std::string> overrides;
+};
+
+void run_eval_traj(const EvalTrajArguments& a) {
+  Config config = load_config(a.config_file, a.overrides);
+  const eval::TrajectoryEvalOptions options = eval::trajectory_eval_options_from_config(config);
+  config.check_all_used();
+  const eval::TrajectoryEvalReport report = eval::evaluate_trajectory_files(a.gt, a.est, options);
+  std::cout << eval::trajectory_report_to_text(report);
+  if (!a.json.empty()) eval::write_report(a.json, eval::trajectory_report_to_json(report));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -150,6 +204,30 @@ int main(int argc, char** argv) {
   demo_cmd->add_option("--out", demo_args.out, "output scan directory")->capture_default_str();
   demo_cmd->add_option("--threads", demo_args.threads, "worker threads (0 = all cores)");
 
+  // eval cloud | traj
+  CLI::App* eval_cmd = app.add_subcommand("eval", "evaluate against ground truth: clouds against meshes, trajectories");
+  eval_cmd->require_subcommand(1);
+  EvalCloudArguments cloud_args;
+  CLI::App* eval_cloud = eval_cmd->add_subcommand("cloud", "exact distances of a point cloud (PLY) to the ground-truth mesh");
+  eval_cloud->add_option("--cloud", cloud_args.cloud, "reconstructed cloud (PLY; a mesh's vertices also work)")->required();
+  eval_cloud->add_option("--mesh", cloud_args.mesh, "ground-truth mesh (PLY)");
+  eval_cloud->add_option("--scan", cloud_args.scan,
+                         "a simulated scan: mesh from groundtruth/mesh.ply, viewpoints from groundtruth/cam*.txt");
+  eval_cloud->add_option("--viewpoints-from", cloud_args.viewpoints_from,
+                         "TUM trajectory whose mean centre is a viewpoint for completeness (repeatable)");
+  eval_cloud->add_option("--coloured-ply", cloud_args.coloured_ply, "write the cloud coloured by its error");
+  eval_cloud->add_option("--json", cloud_args.json, "write every figure and the settings as JSON");
+  eval_cloud->add_option("--config", cloud_args.config_file, "YAML/JSON config (keys: see README)");
+  eval_cloud->add_option("--set", cloud_args.overrides, "override a config key (repeatable)");
+  eval_cloud->add_option("--threads", cloud_args.threads, "worker threads (0 = all cores)");
+  EvalTrajArguments traj_args;
+  CLI::App* eval_traj = eval_cmd->add_subcommand("traj", "ATE and RPE of an estimated TUM trajectory");
+  eval_traj->add_option("--gt", traj_args.gt, "ground-truth TUM trajectory")->required();
+  eval_traj->add_option("--est", traj_args.est, "estimated TUM trajectory")->required();
+  eval_traj->add_option("--json", traj_args.json, "write every figure and the settings as JSON");
+  eval_traj->add_option("--config", traj_args.config_file, "YAML/JSON config (keys: see README)");
+  eval_traj->add_option("--set", traj_args.overrides, "override a config key (repeatable)");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -174,6 +252,10 @@ int main(int argc, char** argv) {
       std::cout << fmt::format("exported {} ({} triangles) to {}\n", scene.name, scene.mesh.num_triangles(), export_out);
     } else if (*sim_cmd) {
       run_sim(sim_args, {});
+    } else if (*eval_cloud) {
+      run_eval_cloud(cloud_args);
+    } else if (*eval_traj) {
+      run_eval_traj(traj_args);
     } else if (*demo_cmd) {
       // A modest size: the office, position 1, every 10th frame of the full turn (~300 frames).
       demo_args.scene = "office";

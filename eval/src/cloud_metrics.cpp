@@ -7,6 +7,8 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Geometry>
+
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
 #include "panoscan/eval/mesh_distance.h"
