@@ -56,6 +56,24 @@ void BM_RaysBareEmbree(benchmark::State& state) {
   state.counters["rays_per_s"] = benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
 }
 
+void BM_RaysBareEmbreePackets(benchmark::State& state) {
+  const Simulator sim(office(), 0, full_size_options());
+  const auto poses = view_poses(sim, 30);
+  const PinholeIntrinsics& k = sim.rig().intrinsics;
+  std::size_t view = 0, hits = 0;
+  for (auto _ : state) {
+    const Rigid3d& pose = poses[view++ % poses.size()];
+    hits += tbb::parallel_reduce(
+        tbb::blocked_range<int>(0, k.height, 8), std::size_t(0),
+        [&](const tbb::blocked_range<int>& rows, std::size_t sum) {
+          return sum + sim.renderer().intersect_only_packets(pose, k, rows.begin(), rows.end());
+        },
+        std::plus<>());
+  }
+  benchmark::DoNotOptimize(hits);
+  state.counters["rays_per_s"] = benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
+}
+
 // Depth + colour + normals + ids + Handa noise + exposure: everything but the PNG files.
 void BM_RaysFullRender(benchmark::State& state) {
   const Simulator sim(office(), 0, full_size_options());
@@ -94,6 +112,7 @@ void BM_SimulateOnePosition(benchmark::State& state) {
 }  // namespace
 
 BENCHMARK(BM_RaysBareEmbree)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
+BENCHMARK(BM_RaysBareEmbreePackets)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
 BENCHMARK(BM_RaysFullRender)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
 BENCHMARK(BM_SimulateOnePosition)->Arg(1)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 

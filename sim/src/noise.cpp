@@ -42,12 +42,14 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
   const int band_rows = static_cast<int>(std::lround(options.ir_band_fraction * height));
   const double min_cos = std::cos(deg2rad(options.max_incidence_deg));
 
-  // Inverse depth of a pixel, or 0 where the sensor has no measurement (no hit, or outside its
-  // range): such a pixel invalidates every lookup that touches it.
-  auto inverse_depth = [&](int x, int y) {
-    const double z = clean.at(x, y);
-    return (z >= options.min_depth_m && z <= options.max_depth_m) ? 1.0 / z : 0.0;
-  };
+  // Inverse depth per pixel, 0 where the sensor has no measurement (no hit, or outside its
+  // range): such a pixel invalidates every lookup that touches it. Computed once per frame so
+  // that the per-pixel lookup needs no division.
+  ImageF32 inverse_depth(width, height, 1, 0.0f);
+  for (std::size_t i = 0; i < clean.data.size(); ++i) {
+    const double z = clean.data[i];
+    if (z >= options.min_depth_m && z <= options.max_depth_m) inverse_depth.data[i] = float(1.0 / z);
+  }
 
   tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y != rows.end(); ++y) {
@@ -85,16 +87,16 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
         const int x0 = static_cast<int>(sx), y0 = static_cast<int>(sy);
         const int x1 = std::min(x0 + 1, width - 1), y1 = std::min(y0 + 1, height - 1);
         const double fx = sx - x0, fy = sy - y0;
-        const double i00 = inverse_depth(x0, y0), i10 = inverse_depth(x1, y0);
-        const double i01 = inverse_depth(x0, y1), i11 = inverse_depth(x1, y1);
+        const double i00 = inverse_depth.at(x0, y0), i10 = inverse_depth.at(x1, y0);
+        const double i01 = inverse_depth.at(x0, y1), i11 = inverse_depth.at(x1, y1);
         if (i00 == 0 || i10 == 0 || i01 == 0 || i11 == 0) continue;
-        const double inv = (1 - fy) * ((1 - fx) * i00 + fx * i10) + fy * ((1 - fx) * i01 + fx * i11);
-        double z = 1.0 / inv;
+        double inv = (1 - fy) * ((1 - fx) * i00 + fx * i10) + fy * ((1 - fx) * i01 + fx * i11);
 
         if (lateral) {
           // handa-icl: displacement along the surface normal with Nguyen et al.'s lateral std
           // sigma_L = (0.8 + 0.035 theta / (pi/2 - theta)) * Z / f; along the ray this moves the
           // range by delta / cos(theta), i.e. z by delta / (cos(theta) * |ray|) for a z-unit ray.
+          double z = 1.0 / inv;
           const double c = std::max(cos_incidence, 0.1);
           const double theta = std::acos(std::min(c, 1.0));
           const double sigma_px = 0.8 + 0.035 * theta / std::max(M_PI / 2 - theta, 1e-3);
@@ -102,10 +104,11 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
           const double ray_x = (x - k.cx) / k.fx, ray_y = (y - k.cy) / k.fy;
           z += delta / (c * std::sqrt(1.0 + ray_x * ray_x + ray_y * ray_y));
           if (z <= 0) continue;
+          inv = 1.0 / z;
         }
 
         // Step 2: disparity noise and unbiased rounding to whole disparity units.
-        const double disparity = kDisparityTimesMetres / z + disparity_noise + speckle_noise;
+        const double disparity = kDisparityTimesMetres * inv + disparity_noise + speckle_noise;
         const double quantised = std::floor(disparity + 0.5);
         if (quantised <= 0) continue;
         const double z_noisy = kDisparityTimesMetres / quantised;

@@ -61,7 +61,7 @@ struct Renderer::Impl {
   const Texture& mip_level(int texture, unsigned triangle, float pixel_footprint_m) const {
     const auto& levels = mip_levels[texture];
     const float texels_per_pixel = pixel_footprint_m * triangle_texels_per_metre[triangle];
-    int level = texels_per_pixel > 1.f ? static_cast<int>(std::log2(texels_per_pixel)) : 0;
+    const int level = texels_per_pixel >= 2.f ? std::ilogb(texels_per_pixel) : 0;  // floor(log2)
     return levels[std::min<int>(level, int(levels.size()) - 1)];
   }
 
@@ -130,9 +130,10 @@ struct Renderer::Impl {
     } else {
       for (const PointLight& light : scene.lights) {
         const Eigen::Vector3f to_light = light.position - point;
-        const float d2 = to_light.squaredNorm();
-        const float cos_light = std::max(0.f, normal.dot(to_light) / std::sqrt(std::max(d2, 1e-8f)));
-        diffuse += light.intensity * cos_light * 2.f / (1.f + d2 / 4.f);
+        const float facing = normal.dot(to_light);
+        if (facing <= 0.f) continue;  // light behind the surface: no sqrt needed
+        const float d2 = std::max(to_light.squaredNorm(), 1e-8f);
+        diffuse += light.intensity * facing * 2.f / (std::sqrt(d2) * (1.f + 0.25f * d2));
       }
       diffuse = std::min(diffuse / float(scene.lights.size()), 1.2f);
     }
@@ -205,41 +206,78 @@ inline void setup_ray(RTCRayHit& ray_hit, const Eigen::Vector3f& origin, const E
 
 }  // namespace
 
+namespace {
+
+// Fills one packet with the rays of pixels (x0 .. x0+7, y); lanes past the row end are invalid.
+void setup_packet(RTCRayHit8& packet, int* valid, const Eigen::Matrix3f& rotation, const Eigen::Vector3f& origin,
+                  const PinholeIntrinsics& k, int x0, int y) {
+  const float ray_y = float((y - k.cy) / k.fy);
+  for (int lane = 0; lane < 8; ++lane) {
+    const int x = std::min(x0 + lane, k.width - 1);
+    valid[lane] = x0 + lane < k.width ? -1 : 0;
+    // Camera-z component 1: the hit distance is the z-depth.
+    const Eigen::Vector3f d = rotation * Eigen::Vector3f(float((x - k.cx) / k.fx), ray_y, 1.f);
+    packet.ray.org_x[lane] = origin.x();
+    packet.ray.org_y[lane] = origin.y();
+    packet.ray.org_z[lane] = origin.z();
+    packet.ray.dir_x[lane] = d.x();
+    packet.ray.dir_y[lane] = d.y();
+    packet.ray.dir_z[lane] = d.z();
+    packet.ray.tnear[lane] = 0.f;
+    packet.ray.tfar[lane] = std::numeric_limits<float>::infinity();
+    packet.ray.time[lane] = 0.f;
+    packet.ray.mask[lane] = 0xFFFFFFFFu;  // Debian's Embree has ray masks on: mask 0 hits nothing
+    packet.ray.id[lane] = 0;
+    packet.ray.flags[lane] = 0;
+    packet.hit.geomID[lane] = RTC_INVALID_GEOMETRY_ID;
+    packet.hit.instID[0][lane] = RTC_INVALID_GEOMETRY_ID;
+  }
+}
+
+}  // namespace
+
 void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsics& k, int row_begin, int row_end,
                            RenderedView& out) const {
   const Eigen::Matrix3f rotation = world_from_cam.linear().cast<float>();
   const Eigen::Vector3f origin = world_from_cam.translation().cast<float>();
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
-  RTCRayHit ray_hit;
+  // Primary camera rays are coherent: packets of 8 neighbouring pixels are Embree's fast path
+  // (about 4x the single-ray throughput on the CI machine, see benchmarks/render_benchmark).
+  context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  alignas(32) RTCRayHit8 packet;
+  alignas(32) int valid[8];
+  const float inv_fx = float(1.0 / k.fx);
   for (int y = row_begin; y < row_end; ++y) {
-    for (int x = 0; x < k.width; ++x) {
-      const Eigen::Vector3f dir_cam(float((x - k.cx) / k.fx), float((y - k.cy) / k.fy), 1.f);
-      const Eigen::Vector3f direction = rotation * dir_cam;
-      setup_ray(ray_hit, origin, direction);
-      rtcIntersect1(impl_->rtc_scene, &context, &ray_hit);
-      if (ray_hit.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
-        out.depth.at(x, y) = 0.f;
-        out.incidence_cos.at(x, y) = 0.f;
-        out.triangle_id.at(x, y) = -1;
-        for (int c = 0; c < 3; ++c) out.rgb.at(x, y, c) = 0;
-        continue;
+    for (int x0 = 0; x0 < k.width; x0 += 8) {
+      setup_packet(packet, valid, rotation, origin, k, x0, y);
+      rtcIntersect8(valid, impl_->rtc_scene, &context, &packet);
+      for (int lane = 0; lane < 8 && x0 + lane < k.width; ++lane) {
+        const int x = x0 + lane;
+        if (packet.hit.geomID[lane] == RTC_INVALID_GEOMETRY_ID) {
+          out.depth.at(x, y) = 0.f;
+          out.incidence_cos.at(x, y) = 0.f;
+          out.triangle_id.at(x, y) = -1;
+          for (int c = 0; c < 3; ++c) out.rgb.at(x, y, c) = 0;
+          continue;
+        }
+        const unsigned triangle = packet.hit.primID[lane];
+        const float t = packet.ray.tfar[lane];
+        const Eigen::Vector3f direction(packet.ray.dir_x[lane], packet.ray.dir_y[lane], packet.ray.dir_z[lane]);
+        out.depth.at(x, y) = t;
+        out.triangle_id.at(x, y) = static_cast<int>(triangle);
+        const Eigen::Vector3f& normal = impl_->triangle_normals[triangle];
+        const float ray_length = direction.norm();
+        const float cos_incidence = std::abs(normal.dot(direction)) / ray_length;
+        out.incidence_cos.at(x, y) = cos_incidence;
+        // A pixel covers range / f metres across the ray, stretched by 1 / cos along the slope;
+        // the geometric mean of the two keeps slanted floors sharp without aliasing.
+        const float footprint = t * ray_length * inv_fx / std::sqrt(std::max(cos_incidence, 0.05f));
+        const Eigen::Vector3f colour = impl_->shade(triangle, packet.hit.u[lane], packet.hit.v[lane],
+                                                    origin + t * direction, direction, footprint);
+        for (int c = 0; c < 3; ++c)
+          out.rgb.at(x, y, c) = static_cast<std::uint8_t>(std::clamp(colour[c] * 255.f + 0.5f, 0.f, 255.f));
       }
-      const unsigned triangle = ray_hit.hit.primID;
-      const float t = ray_hit.ray.tfar;
-      out.depth.at(x, y) = t;
-      out.triangle_id.at(x, y) = static_cast<int>(triangle);
-      const Eigen::Vector3f& normal = impl_->triangle_normals[triangle];
-      const float ray_length = direction.norm();
-      const float cos_incidence = std::abs(normal.dot(direction)) / ray_length;
-      out.incidence_cos.at(x, y) = cos_incidence;
-      // A pixel covers range / f metres across the ray, stretched by 1 / cos along the slope;
-      // the geometric mean of the two keeps slanted floors sharp without aliasing.
-      const float footprint = t * ray_length / float(k.fx) / std::sqrt(std::max(cos_incidence, 0.05f));
-      const Eigen::Vector3f colour =
-          impl_->shade(triangle, ray_hit.hit.u, ray_hit.hit.v, origin + t * direction, direction, footprint);
-      for (int c = 0; c < 3; ++c)
-        out.rgb.at(x, y, c) = static_cast<std::uint8_t>(std::clamp(colour[c] * 255.f + 0.5f, 0.f, 255.f));
     }
   }
 }
@@ -302,6 +340,25 @@ std::size_t Renderer::intersect_only(const Rigid3d& world_from_cam, const Pinhol
       setup_ray(ray_hit, origin, rotation * Eigen::Vector3f(float((x - k.cx) / k.fx), float((y - k.cy) / k.fy), 1.f));
       rtcIntersect1(impl_->rtc_scene, &context, &ray_hit);
       hits += ray_hit.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+    }
+  return hits;
+}
+
+std::size_t Renderer::intersect_only_packets(const Rigid3d& world_from_cam, const PinholeIntrinsics& k,
+                                             int row_begin, int row_end) const {
+  const Eigen::Matrix3f rotation = world_from_cam.linear().cast<float>();
+  const Eigen::Vector3f origin = world_from_cam.translation().cast<float>();
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  alignas(32) RTCRayHit8 packet;
+  alignas(32) int valid[8];
+  std::size_t hits = 0;
+  for (int y = row_begin; y < row_end; ++y)
+    for (int x0 = 0; x0 < k.width; x0 += 8) {
+      setup_packet(packet, valid, rotation, origin, k, x0, y);
+      rtcIntersect8(valid, impl_->rtc_scene, &context, &packet);
+      for (int lane = 0; lane < 8; ++lane) hits += valid[lane] && packet.hit.geomID[lane] != RTC_INVALID_GEOMETRY_ID;
     }
   return hits;
 }
