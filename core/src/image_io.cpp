@@ -26,11 +26,14 @@ void check_shape(const fs::path& path, int width, int height, int channels, std:
                                                  std::to_string(height) + "x" + std::to_string(channels) + ")");
 }
 
-void encode_png(const fs::path& path, const cv::Mat& mat, int compression) {
+// `strategy`: zlib's; measured on simulated 640x480 frames at level 1, Huffman-only coding is
+// both faster (14 vs 18 ms) and smaller for colour, run-length coding for 16-bit depth (8 vs 9 ms).
+void encode_png(const fs::path& path, const cv::Mat& mat, int compression, int strategy) {
   write_via_temp(path, [&](const fs::path& temp) {
     bool ok = false;
     try {
-      ok = cv::imwrite(temp.string(), mat, {cv::IMWRITE_PNG_COMPRESSION, compression});
+      ok = cv::imwrite(temp.string(), mat,
+                       {cv::IMWRITE_PNG_COMPRESSION, compression, cv::IMWRITE_PNG_STRATEGY, strategy});
     } catch (const cv::Exception& e) {
       throw make_error(path.string(), "", std::string("PNG encoding failed: ") + e.what());
     }
@@ -72,13 +75,14 @@ void write_png(const fs::path& path, const ImageU8& image, int compression) {
       dst[3 * x + 2] = src[3 * x + 0];
     }
   }
-  encode_png(path, mat, compression);
+  encode_png(path, mat, compression,
+             compression <= 1 ? cv::IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY : cv::IMWRITE_PNG_STRATEGY_DEFAULT);
 }
 
 void write_png16(const fs::path& path, const ImageU16& image, int compression) {
   check_shape(path, image.width, image.height, 1, image.data.size());
   cv::Mat mat(image.height, image.width, CV_16UC1, const_cast<std::uint16_t*>(image.data.data()));
-  encode_png(path, mat, compression);
+  encode_png(path, mat, compression, compression <= 1 ? cv::IMWRITE_PNG_STRATEGY_RLE : cv::IMWRITE_PNG_STRATEGY_DEFAULT);
 }
 
 ImageU8 read_rgb(const fs::path& path) {

@@ -1,0 +1,69 @@
+#include "panoscan/eval/groundtruth.h"
+
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "panoscan/core/error.h"
+#include "panoscan/core/scan.h"
+
+namespace fs = std::filesystem;
+
+namespace panoscan::eval {
+
+namespace {
+
+Eigen::Vector3d vector_field(const nlohmann::json& j, const std::string& file, const std::string& field) {
+  if (!j.is_array() || j.size() != 3) throw make_error(file, field, "expected 3 numbers");
+  return {j[0].get<double>(), j[1].get<double>(), j[2].get<double>()};
+}
+
+Rigid3d pose_field(const nlohmann::json& j, const std::string& file, const std::string& field) {
+  if (!j.is_object() || !j.contains("translation") || !j.contains("rotation_quaternion_xyzw"))
+    throw make_error(file, field, "expected a pose {translation, rotation_quaternion_xyzw}");
+  const Eigen::Vector3d t = vector_field(j["translation"], file, field + ".translation");
+  const auto& q = j["rotation_quaternion_xyzw"];
+  if (!q.is_array() || q.size() != 4) throw make_error(file, field + ".rotation_quaternion_xyzw", "expected 4 numbers");
+  return make_rigid(Eigen::Quaterniond(q[3].get<double>(), q[0].get<double>(), q[1].get<double>(), q[2].get<double>()), t);
+}
+
+}  // namespace
+
+RigTrajectory groundtruth_rig_trajectory(const fs::path& scan_dir) {
+  const ScanIndex scan = read_scan_index(scan_dir);
+  const fs::path truth_path = groundtruth_dir(scan_dir) / "rig_truth.json";
+  std::ifstream in(truth_path);
+  if (!in) throw make_error(truth_path.string(), "", "cannot open (not a simulated scan?)");
+  nlohmann::json truth;
+  try {
+    in >> truth;
+  } catch (const nlohmann::json::exception& e) {
+    throw make_error(truth_path.string(), "", std::string("not valid JSON: ") + e.what());
+  }
+  const std::string file = truth_path.string();
+  try {
+    RigTrajectory trajectory;
+    trajectory.source = "groundtruth";
+    for (std::size_t c = 0; c < scan.rig.sensors.size(); ++c)
+      trajectory.world_from_cam.push_back(read_groundtruth_trajectory(scan_dir, int(c)));
+    const auto& sensors = truth.at("sensors");
+    if (sensors.size() != scan.rig.sensors.size())
+      throw make_error(file, "sensors", "does not match rig.json's sensor count");
+    for (std::size_t c = 0; c < sensors.size(); ++c)
+      trajectory.ref_from_cam.push_back(
+          pose_field(sensors[c].at("ref_from_cam_true"), file, "sensors[" + std::to_string(c) + "].ref_from_cam_true"));
+    const int reference = scan.rig.reference_sensor;
+    if (trajectory.world_from_cam[reference].empty())
+      throw make_error(file, "reference sensor", "has no frames");
+    trajectory.world_from_axis =
+        axis_frame(vector_field(truth.at("axis").at("point"), file, "axis.point"),
+                   vector_field(truth.at("axis").at("direction"), file, "axis.direction"),
+                   trajectory.world_from_cam[reference].front().world_from_cam);
+    check_rig_trajectory(trajectory, scan, groundtruth_dir(scan_dir).string());
+    return trajectory;
+  } catch (const nlohmann::json::exception& e) {
+    throw make_error(file, "", std::string("missing or mistyped field: ") + e.what());
+  }
+}
+
+}  // namespace panoscan::eval
