@@ -1,0 +1,103 @@
+// Registration between two point clouds (paper §5.1): the ICP family of Table 4 on one code path.
+//
+// Every method minimises sum_i d_i^T M_i d_i over target_from_source (Gauss-Newton on SE(3),
+// left perturbation), d_i = b_i - T a_i for the correspondence (a_i in source, b_i in target);
+// the methods differ only in M_i and in how correspondences are chosen:
+//   kPointToPoint            M = I                                  (Besl & McKay 1992)
+//   kPointToPlane            M = n n^T, n the target normal          (Rusinkiewicz & Levoy 2001)
+//   kPointToPlaneCurvature   M = w n n^T, w from the confidence (observation count) and the
+//                            curvature of the target point           (Lefloch et al. 2017, "Curv")
+//   kGicp                    M = (C_b + R C_a R^T)^-1, C the plane-shaped surface covariances
+//                            (Segal et al. 2009, plain GICP)
+//   kAnisotropic             as kGicp, but the correspondence is the Mahalanobis-nearest of the
+//                            Euclidean candidates                    (Maier-Hein et al. 2012)
+//   kGicpNoiseModel          C = C_surf + the Handa model's measurement covariance ("Def.")
+//   kGicpMeasured            C = C_surf + J diag(s_phi^2, s_theta^2, s_z^2) J^T with the
+//                            per-pixel measured variance (Eq. 9, "Ours")
+// The measurement covariances come with the clouds (RegistrationCloud::measurement_covariances);
+// which model produced them is the caller's choice (see point_covariance.h).
+//
+// Determinism: sums are reduced in fixed blocks in a fixed order, so the result does not depend
+// on the thread count.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "panoscan/core/geometry.h"
+
+namespace panoscan {
+
+enum class IcpMethod {
+  kPointToPoint,
+  kPointToPlane,
+  kPointToPlaneCurvature,
+  kGicp,
+  kAnisotropic,
+  kGicpNoiseModel,
+  kGicpMeasured,
+};
+
+const char* to_string(IcpMethod method);
+IcpMethod icp_method_from_string(const std::string& name);  // throws Error listing the names
+
+// A cloud prepared for registration.
+struct RegistrationCloud {
+  std::vector<Eigen::Vector3d> points;
+  // Optional (empty or one per point): the sensor's measurement covariance of each point (m^2),
+  // used by kGicpNoiseModel / kGicpMeasured.
+  std::vector<Eigen::Matrix3d> measurement_covariances;
+  // Optional (empty or one per point): observation count (confidence), used by "Curv".
+  std::vector<float> confidence;
+
+  // Filled by prepare_surface(): unit normals, curvature (lambda_min / sum lambda) and the
+  // plane-shaped GICP covariance of each point (m^2).
+  std::vector<Eigen::Vector3d> normals;
+  std::vector<float> curvature;
+  std::vector<Eigen::Matrix3d> surface_covariances;
+};
+
+struct SurfaceOptions {
+  int neighbours = 20;          // k nearest neighbours for the local plane
+  double plane_epsilon = 1e-3;  // GICP's epsilon: normal variance relative to the in-plane ones
+  // The surface covariance is U diag(eps, 1, 1) U^T scaled by the in-plane variance of the
+  // neighbourhood (m^2), so that it adds to the measurement covariance in consistent units.
+  int threads = 0;
+};
+
+// Normals, curvature and surface covariances from the k nearest neighbours (nanoflann kd-tree).
+// Normals are oriented towards `viewpoint` (the panorama centre). Throws on an empty cloud.
+void prepare_surface(RegistrationCloud& cloud, const Eigen::Vector3d& viewpoint, const SurfaceOptions& options);
+
+struct IcpOptions {
+  IcpMethod method = IcpMethod::kGicpMeasured;
+  double max_correspondence_m = 0.15;  // lambda_a (paper §6.1)
+  int max_iterations = 50;             // paper §6.3
+  double convergence_translation_m = 1e-6;
+  double convergence_rotation_rad = 1e-7;
+  int anisotropic_candidates = 8;      // Euclidean candidates for the Mahalanobis choice
+  double curvature_scale = 0.05;       // "Curv": w = conf / (1 + (curvature / scale)^2)
+  int threads = 0;                     // 0 = all cores
+
+  void check() const;
+};
+
+struct IcpResult {
+  Rigid3d target_from_source = Rigid3d::Identity();
+  int iterations = 0;
+  bool converged = false;
+  std::size_t correspondences = 0;  // at the last iteration
+  double inlier_fraction = 0.0;     // correspondences / source points
+  double rmse_m = 0.0;              // Euclidean RMSE of the correspondences at the end
+  std::vector<double> cost_history; // the objective per iteration (its own metric)
+};
+
+// Registers `source` onto `target` from `initial_target_from_source`. Both clouds must have
+// gone through prepare_surface() for the methods that need normals or covariances; the
+// measured/noise-model methods also need measurement_covariances. Throws Error on missing data.
+IcpResult register_icp(const RegistrationCloud& source, const RegistrationCloud& target,
+                       const Rigid3d& initial_target_from_source, const IcpOptions& options);
+
+}  // namespace panoscan

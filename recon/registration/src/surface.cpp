@@ -1,0 +1,69 @@
+// Local surface of every point from its k nearest neighbours: the normal, the curvature and
+// Generalized-ICP's plane-shaped covariance (Segal et al. 2009, §III-B).
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Eigenvalues>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "panoscan/core/error.h"
+#include "panoscan/core/kdtree.h"
+#include "panoscan/recon/registration.h"
+
+namespace panoscan {
+
+void prepare_surface(RegistrationCloud& cloud, const Eigen::Vector3d& viewpoint, const SurfaceOptions& options) {
+  const std::size_t n = cloud.points.size();
+  if (n == 0) throw make_error("", "registration cloud", "is empty");
+  if (options.neighbours < 3) throw make_error("", "surface.neighbours", "must be at least 3");
+  const PointKdTree tree(cloud.points);
+  cloud.normals.assign(n, Eigen::Vector3d::UnitZ());
+  cloud.curvature.assign(n, 0.f);
+  cloud.surface_covariances.assign(n, Eigen::Matrix3d::Identity() * 1e-4);
+  const std::size_t k = std::min<std::size_t>(options.neighbours, n);
+  tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const tbb::blocked_range<std::size_t>& range) {
+      std::vector<std::uint32_t> indices(k);
+      std::vector<double> squared(k);
+      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+        const Eigen::Vector3d& p = cloud.points[i];
+        const std::size_t found = tree.knn(p, k, indices.data(), squared.data());
+        Eigen::Vector3d towards_viewpoint = viewpoint - p;
+        if (towards_viewpoint.norm() < 1e-12) towards_viewpoint = Eigen::Vector3d::UnitZ();
+        towards_viewpoint.normalize();
+        if (found < 3) {
+          cloud.normals[i] = towards_viewpoint;
+          continue;
+        }
+        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+        for (std::size_t j = 0; j < found; ++j) mean += cloud.points[indices[j]];
+        mean /= double(found);
+        Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+        for (std::size_t j = 0; j < found; ++j) {
+          const Eigen::Vector3d d = cloud.points[indices[j]] - mean;
+          covariance += d * d.transpose();
+        }
+        covariance /= double(found);
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(covariance);
+        const Eigen::Vector3d values = eigen.eigenvalues().cwiseMax(0.0);  // ascending
+        const Eigen::Matrix3d vectors = eigen.eigenvectors();
+        Eigen::Vector3d normal = vectors.col(0);
+        if (normal.dot(towards_viewpoint) < 0) normal = -normal;
+        cloud.normals[i] = normal;
+        const double total = values.sum();
+        cloud.curvature[i] = total > 0 ? float(values[0] / total) : 0.f;
+        // GICP: the point may slide within its plane but not across it. Scaled by the
+        // neighbourhood's in-plane variance (m^2) so that measurement covariances add in the
+        // same units (Eq. 9).
+        const double in_plane = std::max(0.5 * (values[1] + values[2]), 1e-10);
+        const Eigen::Vector3d shape(options.plane_epsilon * in_plane, in_plane, in_plane);
+        cloud.surface_covariances[i] = vectors * shape.asDiagonal() * vectors.transpose();
+      }
+    });
+  });
+}
+
+}  // namespace panoscan

@@ -1,0 +1,2 @@
+panoscan_add_test(recon_registration_test SOURCES recon_registration_test.cpp
+  DEPS panoscan_recon_registration panoscan_sim)
