@@ -1,0 +1,2 @@
+panoscan_add_test(recon_integration_test SOURCES recon_integration_test.cpp
+  DEPS panoscan_recon_integration panoscan_recon_registration panoscan_sim)
