@@ -17,6 +17,22 @@ TEST(Geometry, So3ExpLogRoundTrip) {
   }
 }
 
+TEST(Geometry, FitRigidTransformRecoversAKnownPoseAndRejectsDegenerateSets) {
+  const Rigid3d truth = make_rigid(so3_exp(Eigen::Vector3d(0.3, -1.2, 2.0)), Eigen::Vector3d(1, -2, 0.5));
+  std::vector<Eigen::Vector3d> from, to;
+  for (int i = 0; i < 10; ++i) {
+    from.push_back(Eigen::Vector3d::Random());
+    to.push_back(truth * from.back());
+  }
+  Rigid3d fitted = Rigid3d::Identity();
+  ASSERT_TRUE(fit_rigid_transform(from, to, fitted));
+  EXPECT_LT((fitted.matrix() - truth.matrix()).norm(), 1e-12);
+  // Collinear points leave a rotation free.
+  const std::vector<Eigen::Vector3d> line = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(2, 0, 0)};
+  EXPECT_FALSE(fit_rigid_transform(line, line, fitted));
+  EXPECT_FALSE(fit_rigid_transform({from[0], from[1]}, {to[0], to[1]}, fitted));
+}
+
 TEST(Geometry, WrapAngles) {
   EXPECT_NEAR(wrap_two_pi(-0.5), 2 * M_PI - 0.5, 1e-12);
   EXPECT_NEAR(wrap_two_pi(7.0), 7.0 - 2 * M_PI, 1e-12);

@@ -1,2 +1,2 @@
 panoscan_add_test(recon_registration_test SOURCES recon_registration_test.cpp
-  DEPS panoscan_recon_registration panoscan_sim)
+  DEPS panoscan_recon_registration panoscan_sim panoscan_scenes)

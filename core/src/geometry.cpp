@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/SVD>
+
 namespace panoscan {
 
 Rigid3d make_rigid(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation) {
@@ -56,6 +58,29 @@ double wrap_pi(double angle_rad) {
   double wrapped = wrap_two_pi(angle_rad);
   if (wrapped > M_PI) wrapped -= 2.0 * M_PI;
   return wrapped;
+}
+
+bool fit_rigid_transform(const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::Vector3d>& to,
+                         Rigid3d& to_from_from) {
+  const std::size_t n = from.size();
+  if (n < 3 || to.size() != n) return false;
+  Eigen::Vector3d mean_from = Eigen::Vector3d::Zero(), mean_to = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < n; ++i) {
+    mean_from += from[i];
+    mean_to += to[i];
+  }
+  mean_from /= double(n);
+  mean_to /= double(n);
+  Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < n; ++i) cross += (to[i] - mean_to) * (from[i] - mean_from).transpose();
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  // Rank < 2 (collinear or coincident points) leaves a rotation about their line free.
+  if (svd.singularValues()[1] <= 1e-12 * std::max(1.0, svd.singularValues()[0])) return false;
+  Eigen::Matrix3d sign = Eigen::Matrix3d::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) sign(2, 2) = -1.0;
+  const Eigen::Matrix3d rotation = svd.matrixU() * sign * svd.matrixV().transpose();
+  to_from_from = make_rigid(rotation, mean_to - rotation * mean_from);
+  return true;
 }
 
 namespace {

@@ -39,6 +39,8 @@ void IcpOptions::check() const {
   if (max_iterations < 1) throw make_error("", "registration.max_iterations", "must be at least 1");
   if (anisotropic_candidates < 1) throw make_error("", "registration.anisotropic_candidates", "must be at least 1");
   if (!(curvature_scale > 0)) throw make_error("", "registration.curvature_scale", "must be positive");
+  if (!(fitness_distance_m > 0)) throw make_error("", "registration.fitness_distance_m", "must be positive");
+  if (!(min_fitness >= 0 && min_fitness <= 1)) throw make_error("", "registration.min_fitness", "must be in [0, 1]");
 }
 
 namespace {
@@ -75,6 +77,7 @@ struct Partial {
   double cost = 0.0;
   double squared_error = 0.0;
   std::size_t count = 0;
+  std::size_t close = 0;  // correspondences within the fitness distance
 };
 
 Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
@@ -160,6 +163,7 @@ class Problem {
     const std::size_t blocks = (n + kBlock - 1) / kBlock;
     std::vector<Partial> partials(blocks);
     const Eigen::Matrix3d rotation = target_from_source.linear();
+    const double fitness2 = options_.fitness_distance_m * options_.fitness_distance_m;
     tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
       Partial& partial = partials[b];
       const std::size_t end = std::min(n, (b + 1) * kBlock);
@@ -179,6 +183,7 @@ class Problem {
         partial.cost += d.dot(m * d);
         partial.squared_error += d.squaredNorm();
         ++partial.count;
+        partial.close += d.squaredNorm() < fitness2;
       }
     });
     Partial total;  // summed in block order: deterministic
@@ -188,6 +193,7 @@ class Problem {
       total.cost += p.cost;
       total.squared_error += p.squared_error;
       total.count += p.count;
+      total.close += p.close;
     }
     return total;
   }
@@ -231,8 +237,16 @@ IcpResult register_icp(const RegistrationCloud& source, const RegistrationCloud&
     const Partial final_state = problem.linearise(result.target_from_source);
     result.correspondences = final_state.count;
     result.inlier_fraction = double(final_state.count) / double(source.points.size());
+    result.fitness = double(final_state.close) / double(source.points.size());
     result.rmse_m = final_state.count ? std::sqrt(final_state.squared_error / double(final_state.count)) : 0.0;
   });
+  if (result.fitness < options.min_fitness)
+    throw make_error("", "registration",
+                     "failed: only " + std::to_string(int(std::lround(100 * result.fitness))) +
+                         "% of the source points lie within " + std::to_string(options.fitness_distance_m) +
+                         " m of the target at the end (minimum " +
+                         std::to_string(int(std::lround(100 * options.min_fitness))) +
+                         "%); the initial guess is probably wrong");
   return result;
 }
 

@@ -8,6 +8,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <vector>
+
 namespace panoscan {
 
 using Rigid3d = Eigen::Isometry3d;
@@ -32,6 +34,12 @@ double wrap_pi(double angle_rad);
 
 inline double deg2rad(double deg) { return deg * 0.017453292519943295; }
 inline double rad2deg(double rad) { return rad * 57.29577951308232; }
+
+// Least-squares rigid transform (no scale) with to ~ result * from (Umeyama 1991 with c = 1;
+// the SVD's reflection case handled). Needs at least 3 non-collinear pairs; returns false if the
+// pairs are degenerate (then `to_from_from` is left unchanged).
+bool fit_rigid_transform(const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::Vector3d>& to,
+                         Rigid3d& to_from_from);
 
 // Exact Euclidean distance from a point to a triangle (closest point on the triangle,
 // including its edges and vertices). Degenerate triangles fall back to the closest segment.

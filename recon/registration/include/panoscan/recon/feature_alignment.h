@@ -1,0 +1,52 @@
+// Initial guess for registering two panoramas (paper §5.1): ORB matches between the two colour
+// panoramas, back-projected to 3D with their radial depths, and a rigid RANSAC on the 3D pairs.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "panoscan/core/camera.h"
+#include "panoscan/core/geometry.h"
+#include "panoscan/core/image.h"
+
+namespace panoscan {
+
+// An equirectangular RGB-D panorama as images: colour (3 channels) and radial depth (metres,
+// 0 = none), both H x 2H.
+struct PanoramaImages {
+  const ImageU8* rgb = nullptr;
+  const ImageF32* radial_depth = nullptr;
+};
+
+struct FeatureAlignmentOptions {
+  int max_features = 8000;           // ORB features per panorama
+  double ratio_test = 0.8;           // Lowe's ratio on Hamming distances
+  double inlier_threshold_m = 0.05;  // RANSAC: 3D distance after the transform
+  int ransac_iterations = 4000;
+  int min_inliers = 25;              // below this the alignment is reported as failed
+  std::uint64_t seed = 1;            // RANSAC sampling (deterministic)
+
+  void check() const;
+};
+
+struct FeatureAlignment {
+  bool success = false;
+  std::string failure;  // why not, when !success
+  Rigid3d target_from_source = Rigid3d::Identity();
+  int source_features = 0, target_features = 0;
+  int matches = 0;   // after ratio and cross check, with valid depth on both sides
+  int inliers = 0;
+  double inlier_rmse_m = 0.0;
+  // The matched 3D points (panorama frames) after the ratio and cross checks, for verifying a
+  // pose found otherwise (count_consistent_matches).
+  std::vector<Eigen::Vector3d> matched_source, matched_target;
+};
+
+// How many of the feature matches a pose explains within `threshold_m`.
+int count_consistent_matches(const FeatureAlignment& features, const Rigid3d& target_from_source, double threshold_m);
+
+FeatureAlignment align_panorama_features(const PanoramaImages& source, const PanoramaImages& target,
+                                         const FeatureAlignmentOptions& options);
+
+}  // namespace panoscan

@@ -1,0 +1,152 @@
+#include "panoscan/recon/feature_alignment.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+
+#include "panoscan/core/error.h"
+#include "panoscan/core/random.h"
+
+namespace panoscan {
+
+void FeatureAlignmentOptions::check() const {
+  if (max_features < 10) throw make_error("", "features.max_features", "must be at least 10");
+  if (!(ratio_test > 0 && ratio_test <= 1)) throw make_error("", "features.ratio_test", "must be in (0, 1]");
+  if (!(inlier_threshold_m > 0)) throw make_error("", "features.inlier_threshold_m", "must be positive");
+  if (ransac_iterations < 1) throw make_error("", "features.ransac_iterations", "must be at least 1");
+  if (min_inliers < 3) throw make_error("", "features.min_inliers", "must be at least 3");
+}
+
+namespace {
+
+struct Features {
+  std::vector<Eigen::Vector3d> points;  // back-projected keypoints (panorama frame)
+  cv::Mat descriptors;                  // rows aligned with points
+};
+
+Features detect(const PanoramaImages& images, const FeatureAlignmentOptions& options, const char* role) {
+  if (!images.rgb || !images.radial_depth) throw make_error("", std::string(role) + " panorama", "missing images");
+  const ImageU8& rgb = *images.rgb;
+  const ImageF32& depth = *images.radial_depth;
+  if (rgb.channels != 3 || rgb.width != 2 * rgb.height || depth.width != rgb.width || depth.height != rgb.height)
+    throw make_error("", std::string(role) + " panorama", "needs H x 2H colour (3 channels) and depth of the same size");
+  cv::Mat grey(rgb.height, rgb.width, CV_8UC1);
+  for (int y = 0; y < rgb.height; ++y)
+    for (int x = 0; x < rgb.width; ++x) {
+      const std::uint8_t* p = &rgb.at(x, y, 0);
+      grey.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>((77 * p[0] + 150 * p[1] + 29 * p[2]) >> 8);
+    }
+  cv::Ptr<cv::ORB> orb = cv::ORB::create(options.max_features);
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+  orb->detectAndCompute(grey, cv::noArray(), keypoints, descriptors);
+  const Equirectangular pano{rgb.height};
+  Features features;
+  for (std::size_t i = 0; i < keypoints.size(); ++i) {
+    const int x = std::clamp(int(std::lround(keypoints[i].pt.x)), 0, rgb.width - 1);
+    const int y = std::clamp(int(std::lround(keypoints[i].pt.y)), 0, rgb.height - 1);
+    const float z = depth.at(x, y);
+    if (!(z > 0) || !std::isfinite(z)) continue;
+    features.points.push_back(pano.direction(keypoints[i].pt.x, keypoints[i].pt.y) * double(z));
+    features.descriptors.push_back(descriptors.row(int(i)));
+  }
+  return features;
+}
+
+}  // namespace
+
+FeatureAlignment align_panorama_features(const PanoramaImages& source, const PanoramaImages& target,
+                                         const FeatureAlignmentOptions& options) {
+  options.check();
+  FeatureAlignment result;
+  const Features from = detect(source, options, "source");
+  const Features to = detect(target, options, "target");
+  result.source_features = int(from.points.size());
+  result.target_features = int(to.points.size());
+  if (from.points.size() < 3 || to.points.size() < 3) {
+    result.failure = "too few features with depth";
+    return result;
+  }
+  // Ratio test in both directions, then keep mutual matches (cross check).
+  cv::BFMatcher matcher(cv::NORM_HAMMING);
+  std::vector<std::vector<cv::DMatch>> forward, backward;
+  matcher.knnMatch(from.descriptors, to.descriptors, forward, 2);
+  matcher.knnMatch(to.descriptors, from.descriptors, backward, 2);
+  auto best = [&](const std::vector<cv::DMatch>& candidates) {
+    if (candidates.empty()) return -1;
+    if (candidates.size() > 1 && candidates[0].distance > options.ratio_test * candidates[1].distance) return -1;
+    return candidates[0].trainIdx;
+  };
+  std::vector<Eigen::Vector3d> matched_from, matched_to;
+  for (std::size_t i = 0; i < forward.size(); ++i) {
+    const int j = best(forward[i]);
+    if (j >= 0 && best(backward[std::size_t(j)]) == int(i)) {
+      matched_from.push_back(from.points[i]);
+      matched_to.push_back(to.points[std::size_t(j)]);
+    }
+  }
+  result.matches = int(matched_from.size());
+  result.matched_source = matched_from;
+  result.matched_target = matched_to;
+  if (result.matches < options.min_inliers) {
+    result.failure = "only " + std::to_string(result.matches) + " feature matches";
+    return result;
+  }
+  // RANSAC over minimal sets of 3 pairs.
+  RandomStream rng(options.seed, 0, 0, RandomPurpose::kGeneric);
+  const double threshold2 = options.inlier_threshold_m * options.inlier_threshold_m;
+  std::vector<std::size_t> best_inliers;
+  const int n = result.matches;
+  for (int iteration = 0; iteration < options.ransac_iterations; ++iteration) {
+    const int a = rng.uniform_int(0, n - 1), b = rng.uniform_int(0, n - 1), c = rng.uniform_int(0, n - 1);
+    if (a == b || b == c || a == c) continue;
+    Rigid3d hypothesis;
+    if (!fit_rigid_transform({matched_from[a], matched_from[b], matched_from[c]},
+                             {matched_to[a], matched_to[b], matched_to[c]}, hypothesis))
+      continue;
+    std::vector<std::size_t> inliers;
+    for (int i = 0; i < n; ++i)
+      if ((hypothesis * matched_from[i] - matched_to[i]).squaredNorm() < threshold2) inliers.push_back(std::size_t(i));
+    if (inliers.size() > best_inliers.size()) best_inliers = std::move(inliers);
+  }
+  if (int(best_inliers.size()) < options.min_inliers) {
+    result.failure = "RANSAC found only " + std::to_string(best_inliers.size()) + " consistent matches of " +
+                     std::to_string(n);
+    result.inliers = int(best_inliers.size());
+    return result;
+  }
+  // Refit on all inliers, then re-collect them once with the refined pose.
+  for (int round = 0; round < 2; ++round) {
+    std::vector<Eigen::Vector3d> inlier_from, inlier_to;
+    for (std::size_t i : best_inliers) {
+      inlier_from.push_back(matched_from[i]);
+      inlier_to.push_back(matched_to[i]);
+    }
+    if (!fit_rigid_transform(inlier_from, inlier_to, result.target_from_source)) {
+      result.failure = "degenerate inlier set";
+      return result;
+    }
+    best_inliers.clear();
+    for (int i = 0; i < n; ++i)
+      if ((result.target_from_source * matched_from[i] - matched_to[i]).squaredNorm() < threshold2)
+        best_inliers.push_back(std::size_t(i));
+  }
+  double sum = 0;
+  for (std::size_t i : best_inliers) sum += (result.target_from_source * matched_from[i] - matched_to[i]).squaredNorm();
+  result.inliers = int(best_inliers.size());
+  result.inlier_rmse_m = best_inliers.empty() ? 0.0 : std::sqrt(sum / best_inliers.size());
+  result.success = result.inliers >= options.min_inliers;
+  if (!result.success) result.failure = "too few inliers after refinement";
+  return result;
+}
+
+int count_consistent_matches(const FeatureAlignment& features, const Rigid3d& target_from_source, double threshold_m) {
+  int consistent = 0;
+  for (std::size_t i = 0; i < features.matched_source.size(); ++i)
+    consistent += (target_from_source * features.matched_source[i] - features.matched_target[i]).norm() < threshold_m;
+  return consistent;
+}
+
+}  // namespace panoscan
