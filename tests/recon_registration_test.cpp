@@ -6,6 +6,7 @@
 #include "panoscan/core/error.h"
 #include "panoscan/core/random.h"
 #include "panoscan/recon/feature_alignment.h"
+#include "panoscan/recon/open3d_reference.h"
 #include "panoscan/recon/point_covariance.h"
 #include "panoscan/recon/registration.h"
 #include "panoscan/scenes/scenes.h"
@@ -258,4 +259,19 @@ TEST(FeatureAlignment, FeaturelessPanoramasReportFailure) {
   EXPECT_FALSE(result.failure.empty());
   ImageU8 wrong_size(100, 100, 3, 0);
   EXPECT_THROW(align_panorama_features({&wrong_size, &depth}, {&grey, &depth}, FeatureAlignmentOptions{}), Error);
+}
+
+TEST(OutsideReference, Open3dGicpAgreesOnTheSameClouds) {
+  const Scene scene = furnished_room();
+  const Renderer renderer(scene);
+  const Rigid3d world_from_target = make_rigid(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.2, -0.3, 1.2));
+  const Rigid3d world_from_source = make_rigid(so3_exp(Eigen::Vector3d(0.0, 0.0, 0.5)), Eigen::Vector3d(0.8, 0.2, 1.2));
+  const Panorama target = make_panorama(renderer, world_from_target, 0.002, 0.002, 1);
+  const Panorama source = make_panorama(renderer, world_from_source, 0.002, 0.002, 2);
+  const Rigid3d truth = world_from_target.inverse() * world_from_source;
+  const Rigid3d initial = make_rigid(so3_exp(Eigen::Vector3d(0.0, 0.01, 0.03)), Eigen::Vector3d(0.03, -0.02, 0.01)) * truth;
+  const IcpResult reference = register_open3d_gicp(source.cloud, target.cloud, initial, IcpOptions{});
+  EXPECT_LT(rotation_error_deg(reference.target_from_source, truth), 0.1);
+  EXPECT_LT((reference.target_from_source.translation() - truth.translation()).norm(), 0.005);
+  EXPECT_GT(reference.inlier_fraction, 0.5);
 }

@@ -1,0 +1,83 @@
+// Registration speed (Table 4 methods) against Open3D's GICP on the same clouds, same run.
+//   build/benchmarks/registration_benchmark
+#include <benchmark/benchmark.h>
+
+#include "panoscan/recon/open3d_reference.h"
+#include "panoscan/recon/point_covariance.h"
+#include "panoscan/recon/registration.h"
+#include "panoscan/scenes/scenes.h"
+#include "panoscan/sim/renderer.h"
+
+using namespace panoscan;
+
+namespace {
+
+struct Pair {
+  RegistrationCloud source, target;
+  Rigid3d initial;
+};
+
+// Office panoramas from SO-1 and SO-3 at H = 256 (all valid pixels, ~130k points each), with
+// Handa-model measurement covariances; the initial guess is the truth perturbed by 1 deg / 3 cm.
+const Pair& office_pair() {
+  static const Pair pair = [] {
+    const Scene scene = scenes::make_builtin_scene("office");
+    const Renderer renderer(scene);
+    const Equirectangular pano{256};
+    auto make = [&](const Rigid3d& world_from_pano) {
+      const RenderedView view = renderer.render_equirectangular(world_from_pano, pano);
+      RegistrationCloud cloud;
+      for (int v = 0; v < pano.height; ++v)
+        for (int u = 0; u < pano.width(); ++u) {
+          const double z = view.depth.at(u, v);
+          if (z <= 0) continue;
+          cloud.points.push_back(pano.direction(u, v) * z);
+          cloud.measurement_covariances.push_back(equirectangular_point_covariance(
+              2 * M_PI * (u + 0.5) / pano.width(), M_PI * (v + 0.5) / pano.height, z, 0.5 * M_PI / pano.height,
+              9.49e-4 * z * z));
+        }
+      prepare_surface(cloud, Eigen::Vector3d::Zero(), SurfaceOptions{});
+      return cloud;
+    };
+    const Rigid3d world_from_target =
+        make_rigid(Eigen::Matrix3d::Identity(), scene.positions[0].floor_point + Eigen::Vector3d(0, 0, 1.1));
+    const Rigid3d world_from_source =
+        make_rigid(so3_exp(Eigen::Vector3d(0, 0, 0.7)), scene.positions[2].floor_point + Eigen::Vector3d(0, 0, 1.1));
+    Pair p{make(world_from_source), make(world_from_target), Rigid3d::Identity()};
+    p.initial = make_rigid(so3_exp(Eigen::Vector3d(0.005, -0.01, 0.015)), Eigen::Vector3d(0.03, -0.02, 0.01)) *
+                world_from_target.inverse() * world_from_source;
+    return p;
+  }();
+  return pair;
+}
+
+void BM_Register(benchmark::State& state) {
+  const Pair& pair = office_pair();
+  IcpOptions options;
+  options.method = static_cast<IcpMethod>(state.range(0));
+  state.SetLabel(to_string(options.method));
+  int iterations = 0;
+  for (auto _ : state) iterations = register_icp(pair.source, pair.target, pair.initial, options).iterations;
+  state.counters["iterations"] = iterations;
+  state.counters["points"] = double(pair.source.points.size());
+}
+
+void BM_RegisterOpen3dGicp(benchmark::State& state) {
+  const Pair& pair = office_pair();
+  for (auto _ : state) benchmark::DoNotOptimize(register_open3d_gicp(pair.source, pair.target, pair.initial, IcpOptions{}));
+  state.counters["points"] = double(pair.source.points.size());
+}
+
+void BM_PrepareSurface(benchmark::State& state) {
+  RegistrationCloud cloud = office_pair().source;
+  for (auto _ : state) prepare_surface(cloud, Eigen::Vector3d::Zero(), SurfaceOptions{});
+  state.counters["points"] = double(cloud.points.size());
+}
+
+}  // namespace
+
+BENCHMARK(BM_Register)->DenseRange(0, 6)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_RegisterOpen3dGicp)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_PrepareSurface)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+BENCHMARK_MAIN();
