@@ -1,8 +1,8 @@
-// Registration speed (Table 4 methods) against Open3D's GICP on the same clouds, same run.
+// Registration speed (Table 4 methods) against Open3D's and PCL's GICP on the same clouds, same run.
 //   build/benchmarks/registration_benchmark
 #include <benchmark/benchmark.h>
 
-#include "panoscan/recon/open3d_reference.h"
+#include "panoscan/recon/outside_references.h"
 #include "panoscan/recon/point_covariance.h"
 #include "panoscan/recon/registration.h"
 #include "panoscan/scenes/scenes.h"
@@ -68,6 +68,12 @@ void BM_RegisterOpen3dGicp(benchmark::State& state) {
   state.counters["points"] = double(pair.source.points.size());
 }
 
+void BM_RegisterPclGicp(benchmark::State& state) {
+  const Pair& pair = office_pair();
+  for (auto _ : state) benchmark::DoNotOptimize(register_pcl_gicp(pair.source, pair.target, pair.initial, IcpOptions{}));
+  state.counters["points"] = double(pair.source.points.size());
+}
+
 void BM_PrepareSurface(benchmark::State& state) {
   RegistrationCloud cloud = office_pair().source;
   for (auto _ : state) prepare_surface(cloud, Eigen::Vector3d::Zero(), SurfaceOptions{});
@@ -78,6 +84,7 @@ void BM_PrepareSurface(benchmark::State& state) {
 
 BENCHMARK(BM_Register)->DenseRange(0, 6)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_RegisterOpen3dGicp)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_RegisterPclGicp)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_PrepareSurface)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 BENCHMARK_MAIN();

@@ -10,7 +10,7 @@ packages=(
   build-essential cmake ninja-build pkg-config git
   libeigen3-dev libembree-dev libopencv-dev libassimp-dev libopenexr-dev libtbb-dev
   libcli11-dev nlohmann-json3-dev libyaml-cpp-dev libspdlog-dev libfmt-dev
-  libceres-dev libopen3d-dev
+  libceres-dev libopen3d-dev libpcl-dev
   libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
   python3-matplotlib python3-numpy
 )

@@ -6,7 +6,7 @@
 #include "panoscan/core/error.h"
 #include "panoscan/core/random.h"
 #include "panoscan/recon/feature_alignment.h"
-#include "panoscan/recon/open3d_reference.h"
+#include "panoscan/recon/outside_references.h"
 #include "panoscan/recon/point_covariance.h"
 #include "panoscan/recon/registration.h"
 #include "panoscan/scenes/scenes.h"
@@ -261,7 +261,7 @@ TEST(FeatureAlignment, FeaturelessPanoramasReportFailure) {
   EXPECT_THROW(align_panorama_features({&wrong_size, &depth}, {&grey, &depth}, FeatureAlignmentOptions{}), Error);
 }
 
-TEST(OutsideReference, Open3dGicpAgreesOnTheSameClouds) {
+TEST(OutsideReference, Open3dAndPclGicpAgreeOnTheSameClouds) {
   const Scene scene = furnished_room();
   const Renderer renderer(scene);
   const Rigid3d world_from_target = make_rigid(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.2, -0.3, 1.2));
@@ -274,4 +274,8 @@ TEST(OutsideReference, Open3dGicpAgreesOnTheSameClouds) {
   EXPECT_LT(rotation_error_deg(reference.target_from_source, truth), 0.1);
   EXPECT_LT((reference.target_from_source.translation() - truth.translation()).norm(), 0.005);
   EXPECT_GT(reference.inlier_fraction, 0.5);
+  const IcpResult pcl = register_pcl_gicp(source.cloud, target.cloud, initial, IcpOptions{});
+  EXPECT_TRUE(pcl.converged);
+  EXPECT_LT(rotation_error_deg(pcl.target_from_source, truth), 0.1);
+  EXPECT_LT((pcl.target_from_source.translation() - truth.translation()).norm(), 0.005);
 }

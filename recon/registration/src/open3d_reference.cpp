@@ -1,4 +1,4 @@
-#include "panoscan/recon/open3d_reference.h"
+#include "panoscan/recon/outside_references.h"
 
 #include <open3d/geometry/PointCloud.h>
 #include <open3d/pipelines/registration/GeneralizedICP.h>
