@@ -1,0 +1,87 @@
+// Speed of the joint tracking (paper Table 6: 4.3 ms per frame front end, 3.02 s tracking per
+// panorama at n = 16 on a 6-core CPU). Simulated office SO-1 scans with Handa noise, rendered once
+// per (resolution, n) into a temporary directory. Arguments: {width, n} (Solve: {width, n, solver}).
+//   tracking_benchmark --benchmark_filter=Frontend      front end ms per frame (counter ms_per_frame)
+//   tracking_benchmark --benchmark_filter=Solve         factor graph per panorama, against n
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+#include <map>
+#include <memory>
+
+#include <unistd.h>
+
+#include "panoscan/core/scan.h"
+#include "panoscan/recon/tracking.h"
+#include "panoscan/scenes/scenes.h"
+#include "panoscan/sim/simulator.h"
+
+namespace panoscan {
+namespace {
+
+constexpr int kThreads = 2;
+
+const ScanIndex& scan_for(int width, int every) {
+  static std::map<std::pair<int, int>, ScanIndex> scans;
+  static const Scene scene = scenes::make_builtin_scene("office");
+  const auto key = std::make_pair(width, every);
+  if (auto it = scans.find(key); it != scans.end()) return it->second;
+  SimOptions options;
+  options.rig.width = width;
+  options.rig.height = width * 3 / 4;
+  options.output.every = every;
+  options.seed = 3;
+  options.threads = kThreads;
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("panoscan-tracking-benchmark-" + std::to_string(::getpid()) + "-" + std::to_string(width) + "-" +
+                    std::to_string(every));
+  Simulator(scene, 0, options).write_scan(dir, true);
+  return scans[key] = read_scan_index(dir);
+}
+
+TrackingOptions benchmark_options() {
+  TrackingOptions options;
+  options.threads = kThreads;
+  options.frontend.threads = kThreads;
+  return options;
+}
+
+void BM_Frontend(benchmark::State& state) {
+  const ScanIndex& scan = scan_for(int(state.range(0)), int(state.range(1)));
+  std::size_t frames = 0;
+  for (const auto& f : scan.frames) frames += f.size();
+  double ms = 0;
+  for (auto _ : state) {
+    const FrontendResult result = run_frontend(scan, benchmark_options().frontend);
+    ms = 1e3 * result.total_seconds / double(frames);
+    benchmark::DoNotOptimize(result.landmarks.size());
+  }
+  state.counters["frames"] = double(frames);
+  state.counters["ms_per_frame"] = ms;
+}
+
+void BM_Solve(benchmark::State& state) {
+  const ScanIndex& scan = scan_for(int(state.range(0)), int(state.range(1)));
+  const FrontendResult frontend = run_frontend(scan, benchmark_options().frontend);
+  TrackingOptions options = benchmark_options();
+  if (state.range(2) == 1) options.linear_solver = "sparse_normal_cholesky";
+  TrackingStats stats;
+  for (auto _ : state) stats = track_with_frontend(scan, frontend, options).stats;
+  state.counters["linear_solver_s"] = stats.linear_solver_seconds;
+  state.counters["jacobian_s"] = stats.jacobian_seconds;
+  state.counters["frames"] = stats.frames;
+  state.counters["landmarks"] = stats.landmarks;
+  state.counters["iterations"] = stats.iterations;
+  state.counters["solve_s"] = stats.solve_seconds;
+  state.counters["converged"] = stats.converged;
+}
+
+BENCHMARK(BM_Frontend)->Args({640, 16})->Args({320, 16})->Unit(benchmark::kMillisecond)->Iterations(1);
+// Third argument: 0 = SPARSE_SCHUR (default), 1 = SPARSE_NORMAL_CHOLESKY.
+BENCHMARK(BM_Solve)->Args({640, 16, 0})->Args({320, 32, 0})->Args({320, 16, 0})->Args({320, 16, 1})->Args({320, 8, 0})
+    ->Unit(benchmark::kSecond)->Iterations(1);
+
+}  // namespace
+}  // namespace panoscan
+
+BENCHMARK_MAIN();

@@ -1,0 +1,106 @@
+// Front end of the joint tracking (paper §4.1, "Correspondences between frames and landmarks"):
+// ORB keypoints with depth from the registered depth image, matches between frames of one camera
+// verified by 3D-3D RANSAC, matches across cameras between temporally closest frames inside their
+// narrow overlap band, loop closure at the end of the turn, and landmarks as tracks of matches
+// (union-find over matched keypoints).
+//
+// Loop closure: instead of randomised ferns (Glocker et al. 2015) the last `loop_frames` frames
+// of each camera are matched against its first `loop_frames` frames (ORB + the same RANSAC). A
+// panoramic scan ends where it started, so this is the place recognition the method needs.
+//
+// Determinism: RANSAC draws come from RandomStream keyed by (seed, camera, frame, pair), and all
+// parallel work writes to per-frame / per-pair slots merged in a fixed order, so the result does
+// not depend on the thread count.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "panoscan/core/geometry.h"
+#include "panoscan/core/scan.h"
+
+namespace panoscan {
+
+struct FrontendOptions {
+  int orb_features = 1000;          // ORB keypoints per 640x480 frame (scaled with the image area)
+  double orb_scale_factor = 1.2;    // pyramid scale (sigma_u,v = scale^octave px in Eq. 1)
+  int orb_levels = 8;
+  int orb_fast_threshold = 12;
+  int max_hamming = 64;             // descriptor distance limit
+  double ratio = 0.8;               // Lowe ratio test
+  int same_camera_window = 2;       // frame i is matched with i-1 ... i-window of its camera
+  bool cross_camera = true;         // matches between cameras (temporally closest frames)
+  int cross_overlap_margin_px = 8;  // a keypoint is in the overlap band if it projects this far inside the other image
+  bool loop_closure = true;
+  int loop_frames = 4;              // last k frames vs first k frames of each camera
+  int ransac_iterations = 200;
+  double ransac_sigmas = 3.0;       // inlier threshold: this many std of the 3D point difference
+  double ransac_min_threshold_m = 0.005;
+  int min_inliers = 12;             // same camera and loop closure
+  int min_cross_inliers = 6;        // across cameras (narrow band)
+  double cross_max_deviation_deg = 3.0;  // cross-camera transform vs calibrated extrinsics
+  double cross_max_deviation_m = 0.10;
+  double min_depth_m = 0.3, max_depth_m = 8.0;
+  double depth_noise_coefficient = 9.49e-4;  // sigma_Z = c * Z^2 (SPEC §11, Handa et al. 2014)
+  std::uint64_t seed = 1;
+  int threads = 0;                  // 0 = all cores
+  std::vector<int> sensors;         // sensors to use (empty = all)
+
+  void check(const std::string& origin = "<frontend options>") const;
+};
+
+struct Keypoint {
+  float u = 0, v = 0;   // pixel (OpenCV convention)
+  float depth = 0;      // metres, z along the optical axis
+  int octave = 0;
+};
+
+struct FrameFeatures {
+  double timestamp = 0.0;
+  std::vector<Keypoint> keypoints;                 // only keypoints with valid depth
+  std::vector<std::array<std::uint8_t, 32>> descriptors;
+};
+
+struct Observation {
+  int sensor = 0;
+  int frame = 0;
+  int keypoint = 0;
+};
+
+// A verified relative transform between two frames: point_in_a = a_from_b * point_in_b.
+struct FramePairMatch {
+  int sensor_a = 0, frame_a = 0, sensor_b = 0, frame_b = 0;
+  Rigid3d a_from_b = Rigid3d::Identity();
+  int inliers = 0;
+  enum class Kind { kSameCamera, kCrossCamera, kLoop } kind = Kind::kSameCamera;
+};
+
+struct FrontendResult {
+  std::vector<std::vector<FrameFeatures>> features;  // per sensor, per frame of the scan
+  std::vector<FramePairMatch> pairs;                 // accepted pairs, in a fixed order
+  std::vector<std::vector<Observation>> landmarks;   // tracks: at most one observation per frame, >= 2 frames
+  int same_camera_pairs = 0, cross_camera_pairs = 0, loop_pairs = 0;
+  int frames_without_features = 0;  // fewer than min_inliers keypoints with depth
+  double feature_ms_per_frame = 0;  // extraction (wall time / frames)
+  double matching_ms_per_frame = 0;
+  double total_seconds = 0;
+};
+
+// Runs the whole front end on a scan (reads the frames). Throws Error on unreadable frames.
+FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& options);
+
+// 3D-3D RANSAC (3 points, closed-form Kabsch/Umeyama without scale, refit on the inliers).
+// Inlier if |a_i - T b_i| < threshold_i. Returns false with fewer than min_inliers inliers.
+struct RigidRansacResult {
+  Rigid3d a_from_b = Rigid3d::Identity();
+  std::vector<int> inliers;
+};
+bool rigid_ransac(const std::vector<Eigen::Vector3d>& points_a, const std::vector<Eigen::Vector3d>& points_b,
+                  const std::vector<double>& thresholds, int iterations, int min_inliers, std::uint64_t seed,
+                  std::int64_t stream_key, RigidRansacResult* result);
+// Least-squares rigid transform a_from_b of >= 3 point pairs (Kabsch via SVD, reflection-safe).
+Rigid3d fit_rigid(const std::vector<Eigen::Vector3d>& points_a, const std::vector<Eigen::Vector3d>& points_b);
+
+}  // namespace panoscan

@@ -1,0 +1,75 @@
+// 3D-3D RANSAC between matched keypoints with depth (paper §4.1: "We utilize RANSAC to sample
+// and reach a consensus on confident 3D transformations").
+#include <Eigen/Dense>
+
+#include "panoscan/core/random.h"
+#include "panoscan/recon/frontend.h"
+
+namespace panoscan {
+
+Rigid3d fit_rigid(const std::vector<Eigen::Vector3d>& points_a, const std::vector<Eigen::Vector3d>& points_b) {
+  const std::size_t n = points_a.size();
+  Eigen::Vector3d mean_a = Eigen::Vector3d::Zero(), mean_b = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < n; ++i) {
+    mean_a += points_a[i];
+    mean_b += points_b[i];
+  }
+  mean_a /= double(n);
+  mean_b /= double(n);
+  Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < n; ++i) cross += (points_a[i] - mean_a) * (points_b[i] - mean_b).transpose();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d sign = Eigen::Matrix3d::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) sign(2, 2) = -1.0;
+  const Eigen::Matrix3d rotation = svd.matrixU() * sign * svd.matrixV().transpose();
+  return make_rigid(rotation, mean_a - rotation * mean_b);
+}
+
+bool rigid_ransac(const std::vector<Eigen::Vector3d>& points_a, const std::vector<Eigen::Vector3d>& points_b,
+                  const std::vector<double>& thresholds, int iterations, int min_inliers, std::uint64_t seed,
+                  std::int64_t stream_key, RigidRansacResult* result) {
+  const int n = int(points_a.size());
+  if (n < std::max(3, min_inliers)) return false;
+  RandomStream random(seed, stream_key, 0, RandomPurpose::kGeneric, 7);
+  auto count_inliers = [&](const Rigid3d& a_from_b, std::vector<int>* inliers) {
+    inliers->clear();
+    for (int i = 0; i < n; ++i)
+      if ((points_a[i] - a_from_b * points_b[i]).norm() < thresholds[i]) inliers->push_back(i);
+  };
+  std::vector<int> best, current;
+  std::vector<Eigen::Vector3d> sample_a(3), sample_b(3);
+  for (int iteration = 0; iteration < iterations; ++iteration) {
+    int idx[3];
+    idx[0] = random.uniform_int(0, n - 1);
+    do idx[1] = random.uniform_int(0, n - 1); while (idx[1] == idx[0]);
+    do idx[2] = random.uniform_int(0, n - 1); while (idx[2] == idx[0] || idx[2] == idx[1]);
+    for (int k = 0; k < 3; ++k) {
+      sample_a[k] = points_a[idx[k]];
+      sample_b[k] = points_b[idx[k]];
+    }
+    // Degenerate (nearly collinear) samples give no rotation.
+    if ((sample_a[1] - sample_a[0]).cross(sample_a[2] - sample_a[0]).norm() < 1e-4) continue;
+    count_inliers(fit_rigid(sample_a, sample_b), &current);
+    if (current.size() > best.size()) best.swap(current);
+  }
+  if (int(best.size()) < std::max(3, min_inliers)) return false;
+  // Refit on the inliers twice (the consensus set may grow).
+  Rigid3d a_from_b = Rigid3d::Identity();
+  for (int refit = 0; refit < 2; ++refit) {
+    std::vector<Eigen::Vector3d> in_a, in_b;
+    for (int i : best) {
+      in_a.push_back(points_a[i]);
+      in_b.push_back(points_b[i]);
+    }
+    a_from_b = fit_rigid(in_a, in_b);
+    count_inliers(a_from_b, &current);
+    if (int(current.size()) < std::max(3, min_inliers)) break;
+    best.swap(current);
+  }
+  if (int(best.size()) < std::max(3, min_inliers)) return false;
+  result->a_from_b = a_from_b;
+  result->inliers = best;
+  return true;
+}
+
+}  // namespace panoscan

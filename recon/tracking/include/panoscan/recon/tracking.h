@@ -1,0 +1,108 @@
+// Joint tracking of the unsynchronized cameras (paper §4.1): a factor graph solved with Ceres.
+//
+// Variables: landmarks y_j; per frame (camera c, frame i) the pose T_ci (world_from_cam, world =
+// the first frame of the reference camera, held fixed) and the azimuth alpha_ci; the axis pose T_u
+// (world_from_axis); the extrinsics T_c (ref_from_cam) of the non-reference cameras.
+// Factors:
+//   Eq. 1 observation: p = d [u, v, 1] against K (T_ci^-1 y_j), covariance of p propagated from
+//          diag(sigma_u^2, sigma_v^2, sigma_d^2) (sigma_u,v = 1.2^octave px, sigma_d = 9.49e-4 d^2 m,
+//          SPEC §11), Huber kernel;
+//   Eq. 2 pose regularisation: log(T_ci^-1 T_u R(alpha_ci) T_u^-1 T_c) with 5 mm / 0.5 deg std;
+//   Eq. 3 velocity smoothness over all frames of all cameras in timestamp order.
+// Choices (documented in tracking.cpp): rotations as unit quaternions on Ceres' QuaternionManifold
+// (not Euler angles); alpha unwrapped (a real number, so the wrap-around subtraction of Eq. 3 is a
+// plain difference, and the output is wrapped to [0, 2 pi)); the residual of Eq. 2 is
+// (translation, rotation vector) of the error transform; the two gauge freedoms of T_u (rotation
+// about and translation along its own axis, which cancel in T_u R T_u^-1) are fixed by a weak prior
+// (1 m, 1 rad) and the output uses the gauge of rig_trajectory.h (axis_frame()).
+// Initialisation: the reference camera's frame-to-frame RANSAC transforms are chained; an axis is
+// fitted to those poses (direction: mean rotation vector, point: least-squares fixed point of the
+// rotations); alpha_ci is the reference rotation about that axis, interpolated in time for the
+// other cameras, whose poses start at T_u R(alpha) T_u^-1 T_c with the calibrated T_c.
+// Determinism: for a given seed and thread count (Ceres' parallel Jacobian evaluation sums in a
+// fixed order; the front end is thread-count independent).
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "panoscan/core/scan.h"
+#include "panoscan/recon/frontend.h"
+#include "panoscan/recon/rig_trajectory.h"
+
+namespace panoscan {
+class Config;
+
+enum class TrackingMode {
+  kFull,             // Eq. 1-3, all cameras, extrinsics refined
+  kBaOnly,           // Eq. 1 alone (paper Table 2 "BA only")
+  kSingleCamera,     // the reference (middle) camera alone, Eq. 1-3 (Table 2); the others follow the model
+  kFixedExtrinsics,  // Eq. 1-3 with the calibrated extrinsics held fixed
+};
+
+struct TrackingOptions {
+  TrackingMode mode = TrackingMode::kFull;      // track.mode: full | ba-only | single-camera | fixed-extrinsics
+  bool pose_regularisation = true;              // track.pose_regularisation: Eq. 2 on/off (ablation)
+  bool velocity_smoothness = true;              // track.velocity_smoothness: Eq. 3 on/off (ablation)
+  double reg_translation_std_m = 0.005;         // track.reg_translation_std_m (paper §6.1)
+  double reg_rotation_std_deg = 0.5;            // track.reg_rotation_std_deg (paper §6.1)
+  double angular_accel_std_deg_s2 = 1.0;        // track.angular_accel_std_deg_s2 (SPEC §4; paper: variance "1/s^2")
+  // true: the std of v_{i,i+1} - v_{i-1,i} is accel_std * (t_{i+1} - t_{i-1}) / 2 (the velocity change a
+  // random acceleration causes over the interval); false: accel_std * 1 s, the paper's constant Omega_vel.
+  bool velocity_std_scales_with_dt = true;      // track.velocity_std_scales_with_dt
+  // The calibrated extrinsics as a prior on T_c (the calibration's accuracy). Needed: with the narrow
+  // overlap band few or no cross-camera landmarks exist, and Eq. 2 leaves each T_c free to rotate about
+  // and slide along the axis; the prior holds those two directions at the calibration.
+  double extrinsics_prior_translation_std_m = 0.01;  // track.extrinsics_prior_translation_std_m
+  double extrinsics_prior_rotation_std_deg = 1.0;    // track.extrinsics_prior_rotation_std_deg
+  double same_time_s = 1e-3;                    // track.same_time_s: frames closer in time share one azimuth
+  double huber_delta = 2.796;                   // track.huber_delta: on the whitened residual (sqrt of chi2(3) 95%)
+  double depth_noise_coefficient = 9.49e-4;     // track.depth_noise_coefficient: sigma_d = c d^2 (SPEC §11)
+  int max_iterations = 100;                     // track.max_iterations
+  std::string linear_solver = "sparse_schur";   // track.linear_solver: sparse_schur | sparse_normal_cholesky
+  int threads = 0;                              // threads (0 = all cores)
+  FrontendOptions frontend;                     // frontend.* keys
+
+  void check(const std::string& origin = "<tracking options>") const;
+};
+
+struct TrackingStats {
+  std::string mode;
+  int frames = 0, landmarks = 0, observations = 0;
+  int frames_without_observations = 0;  // kept, with only Eq. 2-3 (held at their initial pose in ba-only)
+  int residual_blocks = 0, parameters = 0;
+  int iterations = 0;
+  double initial_cost = 0, final_cost = 0;
+  bool converged = false;               // Ceres reported CONVERGENCE and every pose is finite
+  std::string termination;              // Ceres' message
+  std::string linear_solver;
+  int threads = 1;
+  double frontend_seconds = 0, feature_ms_per_frame = 0, matching_ms_per_frame = 0;
+  double init_seconds = 0, solve_seconds = 0;
+  double linear_solver_seconds = 0, jacobian_seconds = 0;  // parts of solve_seconds (Ceres' summary)
+  int same_camera_pairs = 0, cross_camera_pairs = 0, loop_pairs = 0, frames_without_features = 0;
+};
+
+struct TrackingResult {
+  RigTrajectory trajectory;                       // every frame of the scan, source "tracked:<mode>"
+  std::vector<std::vector<double>> azimuth_rad;   // per sensor, per frame, in [0, 2 pi)
+  TrackingStats stats;
+};
+
+// The one-call entry: front end + factor graph. Throws Error for unusable input (no reference
+// frames, a reference camera without any verified frame pair); reports non-convergence in stats.
+TrackingResult track_scan(const ScanIndex& scan, const TrackingOptions& options);
+// The factor graph on a front end that already ran (tests and ablations reuse one front end). In
+// single-camera mode only the reference camera's features and pairs are used.
+TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& frontend, const TrackingOptions& options);
+
+TrackingOptions tracking_options_from_config(Config& config);
+const char* to_string(TrackingMode mode);
+TrackingMode tracking_mode_from_string(const std::string& text, const std::string& origin);
+
+// Writes the rig trajectory (write_rig_trajectory) plus tracking_stats.json, atomically.
+void write_tracking_result(const std::filesystem::path& dir, const TrackingResult& result, const RigInfo& rig);
+std::string tracking_stats_json(const TrackingStats& stats);
+
+}  // namespace panoscan

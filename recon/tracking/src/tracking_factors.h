@@ -1,0 +1,172 @@
+// The factors of the joint tracking (paper §4.1, Eq. 1-3) as Ceres auto-differentiated cost
+// functors. Internal to panoscan_recon_tracking.
+//
+// Parameter blocks: a pose is a unit quaternion in Ceres order (w, x, y, z) on
+// ceres::QuaternionManifold plus a translation; poses are world_from_cam (T_ci), world_from_axis
+// (T_u) and ref_from_cam (T_c). The azimuth alpha is one unwrapped real number.
+#pragma once
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+namespace panoscan::tracking_factors {
+
+// (q1, t1) * (q2, t2)
+template <typename T>
+void compose(const T* q1, const T* t1, const T* q2, const T* t2, T* q, T* t) {
+  ceres::QuaternionProduct(q1, q2, q);
+  ceres::QuaternionRotatePoint(q1, t2, t);
+  for (int k = 0; k < 3; ++k) t[k] += t1[k];
+}
+
+template <typename T>
+void invert(const T* q, const T* t, T* q_inv, T* t_inv) {
+  q_inv[0] = q[0];
+  q_inv[1] = -q[1];
+  q_inv[2] = -q[2];
+  q_inv[3] = -q[3];
+  ceres::QuaternionRotatePoint(q_inv, t, t_inv);
+  for (int k = 0; k < 3; ++k) t_inv[k] = -t_inv[k];
+}
+
+// Eq. 1: observation of landmark y_j in frame ci. The measurement p = d [u, v, 1] has the covariance
+// J diag(s_u^2, s_v^2, s_d^2) J^T with J = d p / d(u, v, d) = [[d, 0, u], [0, d, v], [0, 0, 1]]; the
+// whitened residual is diag(s_u, s_v, s_d)^-1 J^-1 (p - K X), X = T_ci^-1 y_j, which is
+//   ((d u - (fx X + cx Z)) - u (d - Z)) / (d s_u),  likewise for v,  (d - Z) / s_d.
+// It is linear in X (no division by the predicted depth), so it stays finite for points behind
+// the camera during the first iterations.
+struct ObservationCost {
+  ObservationCost(double u, double v, double d, double fx, double fy, double cx, double cy, double sigma_px,
+                  double sigma_d)
+      : u_(u), v_(v), d_(d), fx_(fx), fy_(fy), cx_(cx), cy_(cy), sigma_px_(sigma_px), sigma_d_(sigma_d) {}
+
+  template <typename T>
+  bool operator()(const T* q_world_from_cam, const T* t_world_from_cam, const T* point_in_world, T* residual) const {
+    const T q_cam_from_world[4] = {q_world_from_cam[0], -q_world_from_cam[1], -q_world_from_cam[2],
+                                   -q_world_from_cam[3]};
+    const T offset[3] = {point_in_world[0] - t_world_from_cam[0], point_in_world[1] - t_world_from_cam[1],
+                         point_in_world[2] - t_world_from_cam[2]};
+    T point_in_cam[3];
+    ceres::QuaternionRotatePoint(q_cam_from_world, offset, point_in_cam);
+    const T& x = point_in_cam[0];
+    const T& y = point_in_cam[1];
+    const T& z = point_in_cam[2];
+    const T e_d = d_ - z;
+    const T e_u = d_ * u_ - (fx_ * x + cx_ * z);
+    const T e_v = d_ * v_ - (fy_ * y + cy_ * z);
+    residual[0] = (e_u - u_ * e_d) / (d_ * sigma_px_);
+    residual[1] = (e_v - v_ * e_d) / (d_ * sigma_px_);
+    residual[2] = e_d / sigma_d_;
+    return true;
+  }
+
+  static ceres::CostFunction* create(double u, double v, double d, double fx, double fy, double cx, double cy,
+                                     double sigma_px, double sigma_d) {
+    return new ceres::AutoDiffCostFunction<ObservationCost, 3, 4, 3, 3>(
+        new ObservationCost(u, v, d, fx, fy, cx, cy, sigma_px, sigma_d));
+  }
+
+  double u_, v_, d_, fx_, fy_, cx_, cy_, sigma_px_, sigma_d_;
+};
+
+// Eq. 2: pose regularisation. E = T_ci^-1 * T_u * R(alpha_ci) * T_u^-1 * T_c, residual =
+// (translation(E) / sigma_t, rotation_vector(E) / sigma_r) (the linearisation of E into 6 numbers).
+struct RegularisationCost {
+  RegularisationCost(double sigma_t, double sigma_r) : sigma_t_(sigma_t), sigma_r_(sigma_r) {}
+
+  template <typename T>
+  bool operator()(const T* q_world_from_cam, const T* t_world_from_cam, const T* alpha, const T* q_world_from_axis,
+                  const T* t_world_from_axis, const T* q_ref_from_cam, const T* t_ref_from_cam, T* residual) const {
+    const T half = alpha[0] * T(0.5);
+    const T q_rotation[4] = {cos(half), T(0), T(0), sin(half)};
+    const T t_zero[3] = {T(0), T(0), T(0)};
+    T q_axis_from_world[4], t_axis_from_world[3];
+    invert(q_world_from_axis, t_world_from_axis, q_axis_from_world, t_axis_from_world);
+    T q_a[4], t_a[3], q_b[4], t_b[3], q_c[4], t_c[3];
+    compose(q_world_from_axis, t_world_from_axis, q_rotation, t_zero, q_a, t_a);  // T_u R(alpha)
+    compose(q_a, t_a, q_axis_from_world, t_axis_from_world, q_b, t_b);           // ... T_u^-1
+    compose(q_b, t_b, q_ref_from_cam, t_ref_from_cam, q_c, t_c);                 // ... T_c (expected world_from_cam)
+    T q_cam_from_world[4], t_cam_from_world[3];
+    invert(q_world_from_cam, t_world_from_cam, q_cam_from_world, t_cam_from_world);
+    T q_error[4], t_error[3];
+    compose(q_cam_from_world, t_cam_from_world, q_c, t_c, q_error, t_error);
+    T rotation_vector[3];
+    ceres::QuaternionToAngleAxis(q_error, rotation_vector);
+    for (int k = 0; k < 3; ++k) {
+      residual[k] = t_error[k] / sigma_t_;
+      residual[3 + k] = rotation_vector[k] / sigma_r_;
+    }
+    return true;
+  }
+
+  static ceres::CostFunction* create(double sigma_t, double sigma_r) {
+    return new ceres::AutoDiffCostFunction<RegularisationCost, 6, 4, 3, 1, 4, 3, 4, 3>(
+        new RegularisationCost(sigma_t, sigma_r));
+  }
+
+  double sigma_t_, sigma_r_;
+};
+
+// Eq. 3: velocity smoothness between three consecutive azimuth nodes (timestamp order, all
+// cameras): v_{i,j} = (alpha_i - alpha_j) / (t_i - t_j); residual (v_{i,i+1} - v_{i-1,i}) / sigma.
+// Linear, so its Jacobian is constant.
+struct VelocityCost {
+  VelocityCost(double t_prev, double t_mid, double t_next, double sigma)
+      : dt_before_(t_mid - t_prev), dt_after_(t_next - t_mid), sigma_(sigma) {}
+
+  template <typename T>
+  bool operator()(const T* alpha_prev, const T* alpha_mid, const T* alpha_next, T* residual) const {
+    residual[0] = ((alpha_next[0] - alpha_mid[0]) / dt_after_ - (alpha_mid[0] - alpha_prev[0]) / dt_before_) / sigma_;
+    return true;
+  }
+
+  static ceres::CostFunction* create(double t_prev, double t_mid, double t_next, double sigma) {
+    return new ceres::AutoDiffCostFunction<VelocityCost, 1, 1, 1, 1>(new VelocityCost(t_prev, t_mid, t_next, sigma));
+  }
+
+  double dt_before_, dt_after_, sigma_;
+};
+
+// Frames (of different cameras) taken at the same instant share the azimuth: (alpha_a - alpha_b) / sigma.
+struct SameTimeCost {
+  explicit SameTimeCost(double sigma) : sigma_(sigma) {}
+  template <typename T>
+  bool operator()(const T* alpha_a, const T* alpha_b, T* residual) const {
+    residual[0] = (alpha_a[0] - alpha_b[0]) / sigma_;
+    return true;
+  }
+  static ceres::CostFunction* create(double sigma) {
+    return new ceres::AutoDiffCostFunction<SameTimeCost, 1, 1, 1>(new SameTimeCost(sigma));
+  }
+  double sigma_;
+};
+
+// Prior on a pose: (translation difference / sigma_t, rotation vector of prior^-1 * pose / sigma_r).
+// Used weakly on T_u to fix its gauge (rotation about and translation along its own z axis, which
+// cancel in T_u R(alpha) T_u^-1) and on T_c (the calibration) for the same two directions of each
+// camera, which only cross-camera landmarks observe.
+struct PosePriorCost {
+  PosePriorCost(const double* q_prior, const double* t_prior, double sigma_t, double sigma_r)
+      : sigma_t_(sigma_t), sigma_r_(sigma_r) {
+    for (int k = 0; k < 4; ++k) q_prior_inverse_[k] = k == 0 ? q_prior[0] : -q_prior[k];
+    for (int k = 0; k < 3; ++k) t_prior_[k] = t_prior[k];
+  }
+  template <typename T>
+  bool operator()(const T* q, const T* t, T* residual) const {
+    const T q_inv[4] = {T(q_prior_inverse_[0]), T(q_prior_inverse_[1]), T(q_prior_inverse_[2]), T(q_prior_inverse_[3])};
+    T q_error[4], rotation_vector[3];
+    ceres::QuaternionProduct(q_inv, q, q_error);
+    ceres::QuaternionToAngleAxis(q_error, rotation_vector);
+    for (int k = 0; k < 3; ++k) {
+      residual[k] = (t[k] - t_prior_[k]) / sigma_t_;
+      residual[3 + k] = rotation_vector[k] / sigma_r_;
+    }
+    return true;
+  }
+  static ceres::CostFunction* create(const double* q_prior, const double* t_prior, double sigma_t, double sigma_r) {
+    return new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(new PosePriorCost(q_prior, t_prior, sigma_t, sigma_r));
+  }
+  double q_prior_inverse_[4], t_prior_[3], sigma_t_, sigma_r_;
+};
+
+}  // namespace panoscan::tracking_factors
