@@ -7,24 +7,6 @@
 
 namespace panoscan {
 
-Rigid3d fit_rigid(const std::vector<Eigen::Vector3d>& points_a, const std::vector<Eigen::Vector3d>& points_b) {
-  const std::size_t n = points_a.size();
-  Eigen::Vector3d mean_a = Eigen::Vector3d::Zero(), mean_b = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < n; ++i) {
-    mean_a += points_a[i];
-    mean_b += points_b[i];
-  }
-  mean_a /= double(n);
-  mean_b /= double(n);
-  Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();
-  for (std::size_t i = 0; i < n; ++i) cross += (points_a[i] - mean_a) * (points_b[i] - mean_b).transpose();
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d sign = Eigen::Matrix3d::Identity();
-  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) sign(2, 2) = -1.0;
-  const Eigen::Matrix3d rotation = svd.matrixU() * sign * svd.matrixV().transpose();
-  return make_rigid(rotation, mean_a - rotation * mean_b);
-}
-
 bool rigid_ransac(const std::vector<Eigen::Vector3d>& points_a, const std::vector<Eigen::Vector3d>& points_b,
                   const std::vector<double>& thresholds, int iterations, int min_inliers, std::uint64_t seed,
                   std::int64_t stream_key, RigidRansacResult* result) {
@@ -49,7 +31,9 @@ bool rigid_ransac(const std::vector<Eigen::Vector3d>& points_a, const std::vecto
     }
     // Degenerate (nearly collinear) samples give no rotation.
     if ((sample_a[1] - sample_a[0]).cross(sample_a[2] - sample_a[0]).norm() < 1e-4) continue;
-    count_inliers(fit_rigid(sample_a, sample_b), &current);
+    Rigid3d hypothesis;
+    if (!fit_rigid_transform(sample_b, sample_a, hypothesis)) continue;
+    count_inliers(hypothesis, &current);
     if (current.size() > best.size()) best.swap(current);
   }
   if (int(best.size()) < std::max(3, min_inliers)) return false;
@@ -61,7 +45,7 @@ bool rigid_ransac(const std::vector<Eigen::Vector3d>& points_a, const std::vecto
       in_a.push_back(points_a[i]);
       in_b.push_back(points_b[i]);
     }
-    a_from_b = fit_rigid(in_a, in_b);
+    if (!fit_rigid_transform(in_b, in_a, a_from_b)) break;
     count_inliers(a_from_b, &current);
     if (int(current.size()) < std::max(3, min_inliers)) break;
     best.swap(current);

@@ -100,7 +100,6 @@ struct RigidRansacResult {
 bool rigid_ransac(const std::vector<Eigen::Vector3d>& points_a, const std::vector<Eigen::Vector3d>& points_b,
                   const std::vector<double>& thresholds, int iterations, int min_inliers, std::uint64_t seed,
                   std::int64_t stream_key, RigidRansacResult* result);
-// Least-squares rigid transform a_from_b of >= 3 point pairs (Kabsch via SVD, reflection-safe).
-Rigid3d fit_rigid(const std::vector<Eigen::Vector3d>& points_a, const std::vector<Eigen::Vector3d>& points_b);
+// (The least-squares fit is core's fit_rigid_transform.)
 
 }  // namespace panoscan
