@@ -107,6 +107,17 @@ TEST(Shutter, ThirtyHertzUnsynchronizedUniqueTimestamps) {
   EXPECT_NE(first[1], first[2]);
 }
 
+TEST(Shutter, SynchronizedOptionTriggersAllCamerasTogether) {
+  ShutterOptions shutter;
+  shutter.synchronized = true;
+  const auto schedule = make_frame_schedule(shutter, OutputOptions{}, 3, 5.0, 11);
+  for (std::size_t k = 0; k < schedule[0].size(); ++k) {
+    EXPECT_NE(schedule[0][k].timestamp, schedule[1][k].timestamp);  // still unique
+    EXPECT_NEAR(schedule[0][k].timestamp, schedule[1][k].timestamp, 3e-6);
+    EXPECT_NEAR(schedule[0][k].timestamp, schedule[2][k].timestamp, 3e-6);
+  }
+}
+
 TEST(Shutter, EveryNKeepsTimestampsAndMaxFramesLimits) {
   ShutterOptions shutter;
   OutputOptions all_frames, sparse, limited;

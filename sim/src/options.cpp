@@ -105,6 +105,7 @@ SimOptions sim_options_from_config(Config& c) {
   o.shutter.jitter_ms = c.get_double("shutter.jitter_ms", o.shutter.jitter_ms, 0.0, 100.0);
   o.shutter.drift_ppm = c.get_double("shutter.drift_ppm", o.shutter.drift_ppm, 0.0, 1e4);
   o.shutter.start_time_s = c.get_double("shutter.start_time_s", o.shutter.start_time_s, 0.0, 1e10);
+  o.shutter.synchronized = c.get_bool("shutter.synchronized", o.shutter.synchronized);
 
   const std::string preset = c.get_string("noise.preset", "handa", {"none", "handa", "handa-icl", "kinect"});
   o.noise.preset = preset == "none"        ? NoisePreset::kNone

@@ -15,10 +15,12 @@ std::vector<std::vector<FrameTime>> make_frame_schedule(const ShutterOptions& sh
   const double nominal_period = 1.0 / shutter.fps;
   for (int sensor = 0; sensor < num_sensors; ++sensor) {
     RandomStream rng(seed, sensor, 0, RandomPurpose::kShutter);
-    const double offset = rng.uniform(0.0, nominal_period);
-    const double drift = rng.uniform(-1.0, 1.0) * shutter.drift_ppm * 1e-6;
+    const double random_offset = rng.uniform(0.0, nominal_period);
+    const double random_drift = rng.uniform(-1.0, 1.0) * shutter.drift_ppm * 1e-6;
+    const double offset = shutter.synchronized ? 0.5 * nominal_period : random_offset;
+    const double drift = shutter.synchronized ? 0.0 : random_drift;
     const double period = nominal_period / (1.0 + drift);
-    const double jitter_std = shutter.jitter_ms * 1e-3;
+    const double jitter_std = shutter.synchronized ? 0.0 : shutter.jitter_ms * 1e-3;
     // Bounded jitter keeps each camera's frames in order and about one period apart.
     const double jitter_limit = std::min(3.0 * jitter_std, 0.2 * period);
     long long previous = -1;

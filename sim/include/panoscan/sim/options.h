@@ -46,6 +46,10 @@ struct ShutterOptions {
   double jitter_ms = 0.3;     // shutter.jitter_ms: std of per-frame timestamp jitter
   double drift_ppm = 50.0;    // shutter.drift_ppm: max clock-rate error per camera
   double start_time_s = 0.0;  // shutter.start_time_s: timestamp of the start of motion
+  // shutter.synchronized: all cameras triggered together (no offsets, drift or jitter), for the
+  // ablation that shows the method does not rely on synchronisation. Timestamps stay unique
+  // (they differ by a microsecond or two).
+  bool synchronized = false;
 };
 
 enum class NoisePreset { kNone, kHanda, kHandaIcl, kKinect };
