@@ -14,35 +14,13 @@
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
-#include "panoscan/eval/cloud_evaluation.h"
-#include "panoscan/eval/report.h"
-#include "panoscan/eval/trajectory_evaluation.h"
-#include "panoscan/scenes/scenes.h"
-#include "panoscan/sim/scene_loader.h"
-#include "panoscan/sim/simulator.h"
+#include "commands.h"
 
 namespace fs = std::filesystem;
 using namespace panoscan;
+using namespace panoscan::app;
 
 namespace {
-
-// Command-line shortcuts that become config overrides, so that the config file and the
-// command line share one validation path.
-struct SimArguments {
-  std::string scene = "office";
-  std::string position = "1";
-  std::string out;
-  std::string config_file;
-  std::vector<std::string> overrides;
-  std::string resolution;
-  int frames = -1;
-  long long seed = -1;
-  std::string noise;
-  int every = -1;
-  int threads = -1;
-  bool clean_depth = false;
-  bool overwrite = false;
-};
 
 void add_sim_options(CLI::App* cmd, SimArguments& a, bool with_scene) {
   if (with_scene) {
@@ -61,116 +39,6 @@ void add_sim_options(CLI::App* cmd, SimArguments& a, bool with_scene) {
   cmd->add_option("--threads", a.threads, "worker threads (0 = all cores)");
   cmd->add_flag("--clean-depth", a.clean_depth, "also write noiseless depth to groundtruth/depth_clean");
   cmd->add_flag("--overwrite", a.overwrite, "replace an existing output directory");
-}
-
-SimOptions resolve_sim_options(const SimArguments& a, const std::vector<std::string>& defaults) {
-  Config config = a.config_file.empty() ? Config() : Config::load_file(a.config_file);
-  for (const auto& d : defaults)
-    if (!config.has(d.substr(0, d.find('=')))) config.apply_override(d);
-  for (const auto& o : a.overrides) config.apply_override(o);
-  if (!a.resolution.empty()) {
-    int width = 0, height = 0;
-    char separator = 0;
-    if (std::sscanf(a.resolution.c_str(), "%d%c%d", &width, &separator, &height) != 3 || separator != 'x')
-      throw make_error("--resolution", "", "expected WIDTHxHEIGHT, got '" + a.resolution + "'");
-    config.set("camera.width", std::to_string(width));
-    config.set("camera.height", std::to_string(height));
-  }
-  if (a.frames >= 0) config.set("output.frames", std::to_string(a.frames));
-  if (a.seed >= 0) config.set("seed", std::to_string(a.seed));
-  if (!a.noise.empty()) config.set("noise.preset", a.noise == "off" ? "none" : a.noise);
-  if (a.every >= 0) config.set("output.every", std::to_string(a.every));
-  if (a.threads >= 0) config.set("threads", std::to_string(a.threads));
-  if (a.clean_depth) config.set("output.clean_depth", "true");
-  SimOptions options = sim_options_from_config(config);
-  config.check_all_used();
-  return options;
-}
-
-int find_position(const Scene& scene, const std::string& position) {
-  for (std::size_t i = 0; i < scene.positions.size(); ++i)
-    if (scene.positions[i].name == position) return int(i);
-  try {
-    std::size_t used = 0;
-    const int index = std::stoi(position, &used);
-    if (used == position.size()) return index - 1;  // validated by the simulator
-  } catch (const std::exception&) {
-  }
-  std::string names;
-  for (const auto& p : scene.positions) names += (names.empty() ? "" : ", ") + p.name;
-  throw make_error("--position", "", "'" + position + "' is neither an index nor one of: " + names);
-}
-
-std::uintmax_t directory_size(const fs::path& dir) {
-  std::uintmax_t bytes = 0;
-  for (const auto& entry : fs::recursive_directory_iterator(dir))
-    if (entry.is_regular_file()) bytes += entry.file_size();
-  return bytes;
-}
-
-void run_sim(const SimArguments& a, const std::vector<std::string>& defaults) {
-  if (a.out.empty()) throw make_error("--out", "", "an output directory is required");
-  const SimOptions options = resolve_sim_options(a, defaults);
-  const Scene scene = load_scene(a.scene);
-  const int position = find_position(scene, a.position);
-  const Simulator simulator(scene, position, options);
-  const auto start = std::chrono::steady_clock::now();
-  const std::size_t frames = simulator.write_scan(a.out, a.overwrite);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::cout << fmt::format("wrote {} ({} {}, {} frames from {} cameras at {}x{}, noise {}, {:.1f} s, {:.1f} MB)\n",
-                           a.out, scene.name, scene.positions[position].name, frames, simulator.rig().num_sensors(),
-                           options.rig.width, options.rig.height, to_string(options.noise.preset), seconds,
-                           directory_size(a.out) / 1e6);
-}
-
-Config load_config(const std::string& file, const std::vector<std::string>& overrides) {
-  Config config = file.empty() ? Config() : Config::load_file(file);
-  for (const auto& o : overrides) config.apply_override(o);
-  return config;
-}
-
-struct EvalCloudArguments {
-  std::string mesh, cloud, scan, coloured_ply, json, config_file;
-  std::vector<std::string> viewpoints_from, overrides;
-  int threads = -1;
-};
-
-void run_eval_cloud(const EvalCloudArguments& a) {
-  std::string mesh = a.mesh;
-  std::vector<fs::path> viewpoints(a.viewpoints_from.begin(), a.viewpoints_from.end());
-  if (!a.scan.empty()) {
-    // A simulated scan brings its ground truth: the mesh and the camera trajectories (viewpoints).
-    const fs::path truth = fs::path(a.scan) / "groundtruth";
-    if (mesh.empty()) mesh = (truth / "mesh.ply").string();
-    if (viewpoints.empty() && fs::is_directory(truth))
-      for (const auto& entry : fs::directory_iterator(truth))
-        if (entry.path().extension() == ".txt") viewpoints.push_back(entry.path());
-    std::sort(viewpoints.begin(), viewpoints.end());
-  }
-  if (mesh.empty()) throw make_error("--mesh", "", "a ground-truth mesh is required (--mesh or --scan)");
-  Config config = load_config(a.config_file, a.overrides);
-  eval::CloudEvalOptions options = eval::cloud_eval_options_from_config(config);
-  config.check_all_used();
-  options.viewpoint_trajectories = viewpoints;
-  options.coloured_ply = a.coloured_ply;
-  if (a.threads >= 0) options.threads = a.threads;
-  const eval::CloudEvalReport report = eval::evaluate_cloud_files(mesh, a.cloud, options);
-  std::cout << eval::cloud_report_to_text(report);
-  if (!a.json.empty()) eval::write_report(a.json, eval::cloud_report_to_json(report));
-}
-
-struct EvalTrajArguments {
-  std::string gt, est, json, config_file;
-  std::vector<std::string> overrides;
-};
-
-void run_eval_traj(const EvalTrajArguments& a) {
-  Config config = load_config(a.config_file, a.overrides);
-  const eval::TrajectoryEvalOptions options = eval::trajectory_eval_options_from_config(config);
-  config.check_all_used();
-  const eval::TrajectoryEvalReport report = eval::evaluate_trajectory_files(a.gt, a.est, options);
-  std::cout << eval::trajectory_report_to_text(report);
-  if (!a.json.empty()) eval::write_report(a.json, eval::trajectory_report_to_json(report));
 }
 
 }  // namespace
@@ -228,6 +96,19 @@ int main(int argc, char** argv) {
   eval_traj->add_option("--config", traj_args.config_file, "YAML/JSON config (keys: see README)");
   eval_traj->add_option("--set", traj_args.overrides, "override a config key (repeatable)");
 
+  // recon track
+  CLI::App* recon_cmd = app.add_subcommand("recon", "reconstruction: tracking (more stages follow)");
+  recon_cmd->require_subcommand(1);
+  ReconTrackArguments track_args;
+  CLI::App* recon_track = recon_cmd->add_subcommand("track", "joint tracking of the unsynchronized cameras (paper 4.1)");
+  recon_track->add_option("--scan", track_args.scan, "scan directory")->required();
+  recon_track->add_option("--out", track_args.out, "output folder: camK.txt, rig_estimate.json, tracking_stats.json")->required();
+  recon_track->add_option("--mode", track_args.mode, "full (default), ba-only, single-camera, fixed-extrinsics");
+  recon_track->add_option("--config", track_args.config_file, "YAML/JSON config (keys track.*, frontend.*)");
+  recon_track->add_option("--set", track_args.overrides, "override a config key (repeatable)");
+  recon_track->add_option("--threads", track_args.threads, "worker threads (0 = all cores)");
+  recon_track->add_flag("--overwrite", track_args.overwrite, "replace existing outputs");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -238,24 +119,17 @@ int main(int argc, char** argv) {
 
   try {
     if (*scene_list) {
-      for (const std::string& name : scenes::builtin_scene_names()) {
-        const Scene scene = scenes::make_builtin_scene(name);
-        std::cout << fmt::format("{}: {} triangles, {} materials, {} textures, positions:", name,
-                                 scene.mesh.num_triangles(), scene.materials.size(), scene.textures.size());
-        for (const auto& p : scene.positions)
-          std::cout << fmt::format(" {} ({:.2f}, {:.2f})", p.name, p.floor_point.x(), p.floor_point.y());
-        std::cout << "\n";
-      }
+      run_scene_list();
     } else if (*scene_export) {
-      const Scene scene = load_scene(export_scene_name);
-      scenes::export_scene(scene, export_out);
-      std::cout << fmt::format("exported {} ({} triangles) to {}\n", scene.name, scene.mesh.num_triangles(), export_out);
+      run_scene_export(export_scene_name, export_out);
     } else if (*sim_cmd) {
       run_sim(sim_args, {});
     } else if (*eval_cloud) {
       run_eval_cloud(cloud_args);
     } else if (*eval_traj) {
       run_eval_traj(traj_args);
+    } else if (*recon_track) {
+      run_recon_track(track_args);
     } else if (*demo_cmd) {
       // A modest size: the office, position 1, every 10th frame of the full turn (~300 frames).
       demo_args.scene = "office";

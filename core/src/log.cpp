@@ -1,5 +1,6 @@
 #include "panoscan/core/log.h"
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <mutex>
@@ -24,9 +25,13 @@ spdlog::logger& logger() {
   return *instance;
 }
 
+// Progress bars are information: --quiet (warnings and errors only) hides them too.
+std::atomic<bool> progress_enabled{true};
+
 }  // namespace
 
 void set_log_level(LogLevel level) {
+  progress_enabled = level <= LogLevel::kInfo;
   static const spdlog::level::level_enum map[] = {spdlog::level::debug, spdlog::level::info, spdlog::level::warn,
                                                   spdlog::level::err, spdlog::level::off};
   logger().set_level(map[static_cast<int>(level)]);
@@ -47,6 +52,7 @@ struct Progress::State {
   std::mutex mutex;
 
   void draw(bool force) {
+    if (!progress_enabled) return;
     const auto now = std::chrono::steady_clock::now();
     const double elapsed = std::chrono::duration<double>(now - start).count();
     const double fraction = total ? double(done) / double(total) : 1.0;
@@ -92,6 +98,7 @@ void Progress::finish() {
   if (state_->finished) return;
   state_->finished = true;
   if (state_->terminal) {
+    if (!progress_enabled) return;
     state_->draw(true);
     std::fprintf(stderr, "\n");
   } else if (state_->last_decile < 10) {

@@ -1,0 +1,169 @@
+#include "commands.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include <fmt/format.h>
+
+#include "panoscan/core/config.h"
+#include "panoscan/core/error.h"
+#include "panoscan/core/log.h"
+#include "panoscan/eval/cloud_evaluation.h"
+#include "panoscan/eval/report.h"
+#include "panoscan/eval/trajectory_evaluation.h"
+#include "panoscan/recon/tracking.h"
+#include "panoscan/scenes/scenes.h"
+#include "panoscan/sim/scene_loader.h"
+#include "panoscan/sim/simulator.h"
+
+namespace fs = std::filesystem;
+
+namespace panoscan::app {
+
+namespace {
+
+
+
+SimOptions resolve_sim_options(const SimArguments& a, const std::vector<std::string>& defaults) {
+  Config config = a.config_file.empty() ? Config() : Config::load_file(a.config_file);
+  for (const auto& d : defaults)
+    if (!config.has(d.substr(0, d.find('=')))) config.apply_override(d);
+  for (const auto& o : a.overrides) config.apply_override(o);
+  if (!a.resolution.empty()) {
+    int width = 0, height = 0;
+    char separator = 0;
+    if (std::sscanf(a.resolution.c_str(), "%d%c%d", &width, &separator, &height) != 3 || separator != 'x')
+      throw make_error("--resolution", "", "expected WIDTHxHEIGHT, got '" + a.resolution + "'");
+    config.set("camera.width", std::to_string(width));
+    config.set("camera.height", std::to_string(height));
+  }
+  if (a.frames >= 0) config.set("output.frames", std::to_string(a.frames));
+  if (a.seed >= 0) config.set("seed", std::to_string(a.seed));
+  if (!a.noise.empty()) config.set("noise.preset", a.noise == "off" ? "none" : a.noise);
+  if (a.every >= 0) config.set("output.every", std::to_string(a.every));
+  if (a.threads >= 0) config.set("threads", std::to_string(a.threads));
+  if (a.clean_depth) config.set("output.clean_depth", "true");
+  SimOptions options = sim_options_from_config(config);
+  config.check_all_used();
+  return options;
+}
+
+int find_position(const Scene& scene, const std::string& position) {
+  for (std::size_t i = 0; i < scene.positions.size(); ++i)
+    if (scene.positions[i].name == position) return int(i);
+  try {
+    std::size_t used = 0;
+    const int index = std::stoi(position, &used);
+    if (used == position.size()) return index - 1;  // validated by the simulator
+  } catch (const std::exception&) {
+  }
+  std::string names;
+  for (const auto& p : scene.positions) names += (names.empty() ? "" : ", ") + p.name;
+  throw make_error("--position", "", "'" + position + "' is neither an index nor one of: " + names);
+}
+
+std::uintmax_t directory_size(const fs::path& dir) {
+  std::uintmax_t bytes = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(dir))
+    if (entry.is_regular_file()) bytes += entry.file_size();
+  return bytes;
+}
+
+Config load_config(const std::string& file, const std::vector<std::string>& overrides) {
+  Config config = file.empty() ? Config() : Config::load_file(file);
+  for (const auto& o : overrides) config.apply_override(o);
+  return config;
+}
+
+}  // namespace
+
+void run_sim(const SimArguments& a, const std::vector<std::string>& defaults) {
+  if (a.out.empty()) throw make_error("--out", "", "an output directory is required");
+  const SimOptions options = resolve_sim_options(a, defaults);
+  const Scene scene = load_scene(a.scene);
+  const int position = find_position(scene, a.position);
+  const Simulator simulator(scene, position, options);
+  const auto start = std::chrono::steady_clock::now();
+  const std::size_t frames = simulator.write_scan(a.out, a.overwrite);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::cout << fmt::format("wrote {} ({} {}, {} frames from {} cameras at {}x{}, noise {}, {:.1f} s, {:.1f} MB)\n",
+                           a.out, scene.name, scene.positions[position].name, frames, simulator.rig().num_sensors(),
+                           options.rig.width, options.rig.height, to_string(options.noise.preset), seconds,
+                           directory_size(a.out) / 1e6);
+}
+
+
+
+void run_eval_cloud(const EvalCloudArguments& a) {
+  std::string mesh = a.mesh;
+  std::vector<fs::path> viewpoints(a.viewpoints_from.begin(), a.viewpoints_from.end());
+  if (!a.scan.empty()) {
+    // A simulated scan brings its ground truth: the mesh and the camera trajectories (viewpoints).
+    const fs::path truth = fs::path(a.scan) / "groundtruth";
+    if (mesh.empty()) mesh = (truth / "mesh.ply").string();
+    if (viewpoints.empty() && fs::is_directory(truth))
+      for (const auto& entry : fs::directory_iterator(truth))
+        if (entry.path().extension() == ".txt") viewpoints.push_back(entry.path());
+    std::sort(viewpoints.begin(), viewpoints.end());
+  }
+  if (mesh.empty()) throw make_error("--mesh", "", "a ground-truth mesh is required (--mesh or --scan)");
+  Config config = load_config(a.config_file, a.overrides);
+  eval::CloudEvalOptions options = eval::cloud_eval_options_from_config(config);
+  config.check_all_used();
+  options.viewpoint_trajectories = viewpoints;
+  options.coloured_ply = a.coloured_ply;
+  if (a.threads >= 0) options.threads = a.threads;
+  const eval::CloudEvalReport report = eval::evaluate_cloud_files(mesh, a.cloud, options);
+  std::cout << eval::cloud_report_to_text(report);
+  if (!a.json.empty()) eval::write_report(a.json, eval::cloud_report_to_json(report));
+}
+
+
+void run_eval_traj(const EvalTrajArguments& a) {
+  Config config = load_config(a.config_file, a.overrides);
+  const eval::TrajectoryEvalOptions options = eval::trajectory_eval_options_from_config(config);
+  config.check_all_used();
+  const eval::TrajectoryEvalReport report = eval::evaluate_trajectory_files(a.gt, a.est, options);
+  std::cout << eval::trajectory_report_to_text(report);
+  if (!a.json.empty()) eval::write_report(a.json, eval::trajectory_report_to_json(report));
+}
+
+
+void run_scene_list() {
+  for (const std::string& name : scenes::builtin_scene_names()) {
+    const Scene scene = scenes::make_builtin_scene(name);
+    std::cout << fmt::format("{}: {} triangles, {} materials, {} textures, positions:", name,
+                             scene.mesh.num_triangles(), scene.materials.size(), scene.textures.size());
+    for (const auto& p : scene.positions)
+      std::cout << fmt::format(" {} ({:.2f}, {:.2f})", p.name, p.floor_point.x(), p.floor_point.y());
+    std::cout << "\n";
+  }
+}
+
+void run_scene_export(const std::string& scene_name, const std::string& out) {
+  const Scene scene = load_scene(scene_name);
+  scenes::export_scene(scene, out);
+  std::cout << fmt::format("exported {} ({} triangles) to {}\n", scene.name, scene.mesh.num_triangles(), out);
+}
+
+void run_recon_track(const ReconTrackArguments& a) {
+  Config config = load_config(a.config_file, a.overrides);
+  if (!a.mode.empty()) config.set("track.mode", a.mode);
+  if (a.threads >= 0) config.set("threads", std::to_string(a.threads));
+  const TrackingOptions options = tracking_options_from_config(config);
+  config.check_all_used();
+  if (fs::exists(a.out) && !a.overwrite)
+    throw make_error(a.out, "", "already exists (use --overwrite to replace it)");
+  const ScanIndex scan = read_scan_index(a.scan);
+  const TrackingResult result = track_scan(scan, options);
+  write_tracking_result(a.out, result, scan.rig);
+  const TrackingStats& s = result.stats;
+  std::cout << fmt::format("tracked {} ({}): {} iterations, cost {:.4g} -> {:.4g}, {}; wrote {}\n", a.scan,
+                           to_string(options.mode), s.iterations, s.initial_cost, s.final_cost,
+                           s.converged ? "converged" : "NOT converged", a.out);
+}
+
+}  // namespace panoscan::app
