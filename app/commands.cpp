@@ -14,6 +14,11 @@
 #include "panoscan/eval/cloud_evaluation.h"
 #include "panoscan/eval/report.h"
 #include "panoscan/eval/trajectory_evaluation.h"
+#include "panoscan/core/point_cloud.h"
+#include "panoscan/eval/groundtruth.h"
+#include "panoscan/eval/mesh_distance.h"
+#include "panoscan/recon/panorama.h"
+#include "panoscan/recon/scene.h"
 #include "panoscan/recon/tracking.h"
 #include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/scene_loader.h"
@@ -164,6 +169,152 @@ void run_recon_track(const ReconTrackArguments& a) {
   std::cout << fmt::format("tracked {} ({}): {} iterations, cost {:.4g} -> {:.4g}, {}; wrote {}\n", a.scan,
                            to_string(options.mode), s.iterations, s.initial_cost, s.final_cost,
                            s.converged ? "converged" : "NOT converged", a.out);
+}
+
+namespace {
+
+// The poses a command should use for one scan.
+RigTrajectory scan_trajectory(const std::string& poses, const std::string& scan_dir, const ScanIndex& scan,
+                              const TrackingOptions& tracking) {
+  if (poses == "ground-truth") return eval::groundtruth_rig_trajectory(scan_dir);
+  if (poses == "tracked") return track_scan(scan, tracking).trajectory;
+  return read_rig_trajectory(poses, scan);
+}
+
+void refuse_existing(const std::string& out, bool overwrite) {
+  if (fs::exists(out) && !overwrite) throw make_error(out, "", "already exists (use --overwrite to replace it)");
+}
+
+// Scene frame of a simulated scan from the frame of a reconstruction that used `trajectory` for
+// it: the reference camera's first frame is where both agree.
+Rigid3d scene_from_reconstruction(const std::string& scan_dir, const RigTrajectory& trajectory, int reference) {
+  const RigTrajectory truth = eval::groundtruth_rig_trajectory(scan_dir);
+  return truth.world_from_cam[reference].front().world_from_cam *
+         trajectory.world_from_cam[reference].front().world_from_cam.inverse();
+}
+
+PointCloud transformed(const PointCloud& cloud, const Rigid3d& b_from_a) {
+  PointCloud out = cloud;
+  for (auto& p : out.positions) p = b_from_a * p;
+  return out;
+}
+
+}  // namespace
+
+void run_recon_panorama(const ReconPanoramaArguments& a) {
+  Config config = load_config(a.config_file, a.overrides);
+  if (!a.method.empty()) config.set("panorama.method", a.method);
+  if (a.height > 0) config.set("panorama.height", std::to_string(a.height));
+  if (a.threads >= 0) config.set("threads", std::to_string(a.threads));
+  const PanoramaOptions options = panorama_options_from_config(config);
+  const TrackingOptions tracking = tracking_options_from_config(config);
+  config.check_all_used();
+  refuse_existing(a.out, a.overwrite);
+  const ScanIndex scan = read_scan_index(a.scan);
+  const RigTrajectory trajectory = scan_trajectory(a.poses, a.scan, scan, tracking);
+  const PanoramaResult result = build_panorama(scan, trajectory, options);
+  write_panorama(a.out, result.panorama, a.overwrite);
+  std::cout << fmt::format("panorama {}x{} ({}, lambda {:.3g}) from {} frames: {} measurements ({:.1f} MB), warp "
+                           "{:.1f} s, fusion {:.1f} s; wrote {}\n",
+                           result.panorama.pano.width(), result.panorama.pano.height, result.panorama.method,
+                           result.panorama.lambda, result.frames_used, result.measurements,
+                           result.measurement_bytes / 1e6, result.warp_seconds, result.fusion_seconds, a.out);
+}
+
+void run_recon_scene(const ReconSceneArguments& a) {
+  if (a.scans.empty()) throw make_error("--scans", "", "at least one scan is needed");
+  Config config = load_config(a.config_file, a.overrides);
+  if (a.threads >= 0) config.set("threads", std::to_string(a.threads));
+  const SceneOptions options = scene_options_from_config(config);
+  config.check_all_used();
+  refuse_existing(a.out, a.overwrite);
+  if (a.poses != "tracked" && a.poses != "ground-truth")
+    throw make_error("--poses", "", "expected tracked or ground-truth, got '" + a.poses + "'");
+  std::vector<SceneScan> scans;
+  for (const std::string& dir : a.scans) {
+    SceneScan s;
+    s.name = fs::path(dir).filename().string();
+    s.scan = read_scan_index(dir);
+    if (a.poses == "ground-truth") s.trajectory = eval::groundtruth_rig_trajectory(dir);
+    scans.push_back(std::move(s));
+  }
+  const SceneResult result = reconstruct_scene(scans, options);
+  PointCloud cloud = result.integration.cloud;
+  if (a.align_to_ground_truth && a.poses == "tracked")
+    cloud = transformed(cloud, scene_from_reconstruction(a.scans[0], result.trajectories[0],
+                                                         scans[0].scan.rig.reference_sensor));
+  fs::create_directories(a.out);
+  write_ply_point_cloud(fs::path(a.out) / "cloud.ply", cloud);
+  for (std::size_t k = 0; k < scans.size(); ++k) {
+    write_panorama(fs::path(a.out) / (scans[k].name + "-panorama"), result.panoramas[k], a.overwrite);
+    write_rig_trajectory(fs::path(a.out) / (scans[k].name + "-poses"), result.trajectories[k], scans[k].scan.rig);
+  }
+  std::cout << fmt::format("scene of {} scans: {} registrations ({} skipped{}), {} points ({} merged groups); "
+                           "times: tracking {:.1f} s, panoramas {:.1f} s, registration {:.1f} s, integration {:.1f} s; "
+                           "wrote {}/cloud.ply\n",
+                           scans.size(), result.edges.size(), result.skipped_pairs.size(),
+                           result.pose_graph_used ? ", pose graph" : "", cloud.size(), result.integration.groups,
+                           result.seconds_tracking, result.seconds_panorama, result.seconds_registration,
+                           result.seconds_integration, a.out);
+}
+
+void run_demo(const DemoArguments& a) {
+  const auto start = std::chrono::steady_clock::now();
+  // 1. Simulate two scanning positions of the office at a modest size.
+  const Scene scene = scenes::make_builtin_scene("office");
+  SimOptions sim;
+  sim.rig.width = 320;
+  sim.rig.height = 240;
+  sim.output.every = 16;
+  if (a.threads >= 0) sim.threads = a.threads;
+  std::vector<SceneScan> scans;
+  std::vector<std::string> dirs;
+  for (int position : {0, 2}) {
+    const std::string dir = (fs::path(a.out) / scene.positions[position].name).string();
+    Simulator(scene, position, sim).write_scan(dir, true);
+    dirs.push_back(dir);
+    SceneScan s;
+    s.name = scene.positions[position].name;
+    s.scan = read_scan_index(dir);
+    scans.push_back(std::move(s));
+  }
+  // 2. Reconstruct: tracking, panoramas (TSA, H = 512), registration (GICP with the measured variance).
+  Config config;
+  config.set("panorama.height", "512");
+  if (a.threads >= 0) config.set("threads", std::to_string(a.threads));
+  SceneOptions options = scene_options_from_config(config);
+  options.registration.cloud.pixel_stride = 2;
+  const SceneResult result = reconstruct_scene(scans, options);
+  // 3. Integrate three ways and evaluate against the mesh (in the scene frame).
+  const Rigid3d scene_from_recon =
+      scene_from_reconstruction(dirs[0], result.trajectories[0], scans[0].scan.rig.reference_sensor);
+  std::vector<PanoramaPoints> points;
+  for (std::size_t k = 0; k < scans.size(); ++k)
+    points.push_back(panorama_integration_points(result.panoramas[k], result.world_from_panorama[k], options.registration.cloud));
+  const eval::MeshDistance mesh(scene.mesh, "office");
+  std::cout << fmt::format("\nPanoScan demo: office {} + {}, 320x240, every 16th frame, tracked poses, TSA panoramas\n",
+                           scans[0].name, scans[1].name);
+  std::cout << "| integration | points | RMSE (mm) | mean (mm) | median (mm) |\n|---|---|---|---|---|\n";
+  for (MergeMethod method : {MergeMethod::kAlignOnly, MergeMethod::kAverage, MergeMethod::kMap}) {
+    IntegrationOptions integration = options.integration;
+    integration.method = method;
+    const PointCloud cloud = transformed(integrate_panoramas(points, integration).cloud, scene_from_recon);
+    std::vector<double> d = mesh.distances(cloud.positions);
+    double sum2 = 0, sum = 0;
+    for (double x : d) {
+      sum2 += x * x;
+      sum += x;
+    }
+    std::sort(d.begin(), d.end());
+    std::cout << fmt::format("| {} | {} | {:.2f} | {:.2f} | {:.2f} |\n", to_string(method), cloud.size(),
+                             std::sqrt(sum2 / d.size()) * 1e3, sum / d.size() * 1e3, d[d.size() / 2] * 1e3);
+    write_ply_point_cloud(fs::path(a.out) / (std::string("cloud-") + to_string(method) + ".ply"), cloud);
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::cout << fmt::format("\n{} registration(s); times: tracking {:.1f} s, panoramas {:.1f} s, registration {:.1f} s; "
+                           "total {:.0f} s. Scans and clouds in {}/\n",
+                           result.edges.size(), result.seconds_tracking, result.seconds_panorama,
+                           result.seconds_registration, seconds, a.out);
 }
 
 }  // namespace panoscan::app

@@ -52,4 +52,34 @@ struct ReconTrackArguments {
 };
 void run_recon_track(const ReconTrackArguments& arguments);
 
+struct ReconPanoramaArguments {
+  std::string scan, poses = "tracked", out, method, config_file;
+  std::vector<std::string> overrides;
+  int height = -1;
+  int threads = -1;
+  bool overwrite = false;
+};
+// --poses: "ground-truth" (a simulated scan's truth), a rig-trajectory folder (from recon track),
+// or "tracked" (track first).
+void run_recon_panorama(const ReconPanoramaArguments& arguments);
+
+struct ReconSceneArguments {
+  std::vector<std::string> scans;
+  std::string poses = "tracked";  // or "ground-truth"
+  std::string out, config_file;
+  std::vector<std::string> overrides;
+  int threads = -1;
+  bool align_to_ground_truth = false;
+  bool overwrite = false;
+};
+void run_recon_scene(const ReconSceneArguments& arguments);
+
+struct DemoArguments {
+  std::string out = "panoscan-demo";
+  int threads = -1;
+};
+// Simulates office SO-1 and SO-3, reconstructs the scene with tracked poses and prints the RMSE
+// of align-only / average / MAP integration against the ground-truth mesh.
+void run_demo(const DemoArguments& arguments);
+
 }  // namespace panoscan::app

@@ -1,0 +1,125 @@
+// Time and peak memory to build one panorama (paper §4.2, Table 6 / Fig. 8): office SO-1, three
+// 640x480 cameras, ground-truth poses, Handa noise, H = 1024; warping and optimisation timed
+// apart, and the TSDF baseline (Open3D, 5 mm voxels, 6 cm truncation) on the same frames.
+//
+//   build/benchmarks/panorama_benchmark                                  # every 16th frame
+//   PANORAMA_BENCH_EVERY=1 build/benchmarks/panorama_benchmark           # every frame (heavy: ~3.6 GB of measurements)
+//   build/benchmarks/panorama_benchmark --benchmark_filter=Warp          # one part, for a clean peak-memory figure
+//
+// Counters: measurements, measurement_MiB (the CSR sets), peak_rss_MiB (getrusage: the peak of the
+// whole process so far, so run one benchmark per process for a per-part figure), frames.
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <memory>
+
+#include <benchmark/benchmark.h>
+
+#include "panoscan/eval/groundtruth.h"
+#include "panoscan/recon/panorama.h"
+#include "panoscan/recon/tsdf_baseline.h"
+#include "panoscan/scenes/scenes.h"
+#include "panoscan/sim/simulator.h"
+
+using namespace panoscan;
+
+namespace {
+
+// Open3D's OpenMP threads spin while idle by default; passive waiting keeps the 2 cores for work.
+[[maybe_unused]] const bool kPassiveOpenMp = [] { return ::setenv("OMP_WAIT_POLICY", "PASSIVE", 0) == 0; }();
+
+int every() {
+  const char* v = std::getenv("PANORAMA_BENCH_EVERY");
+  return v ? std::max(1, std::atoi(v)) : 16;
+}
+
+double peak_rss_mib() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return double(usage.ru_maxrss) / 1024.0;
+}
+
+struct BenchScan {
+  std::filesystem::path dir;
+  ScanIndex index;
+  RigTrajectory truth;
+  ~BenchScan() {
+    std::error_code ignored;
+    std::filesystem::remove_all(dir, ignored);
+  }
+};
+
+const BenchScan& bench_scan() {
+  static const std::unique_ptr<BenchScan> scan = [] {
+    auto s = std::make_unique<BenchScan>();
+    s->dir = std::filesystem::temp_directory_path() / ("panoscan-panorama-bench-" + std::to_string(::getpid()));
+    const Scene scene = scenes::make_builtin_scene("office");
+    SimOptions options;
+    options.output.every = every();
+    Simulator(scene, 0, options).write_scan(s->dir, true);
+    s->index = read_scan_index(s->dir);
+    s->truth = eval::groundtruth_rig_trajectory(s->dir);
+    return s;
+  }();
+  return *scan;
+}
+
+void BM_PanoramaWarp(benchmark::State& state) {
+  const BenchScan& scan = bench_scan();
+  WarpOptions options;
+  options.height = 1024;
+  std::size_t samples = 0, bytes = 0, frames = 0;
+  for (auto _ : state) {
+    const PanoramaMeasurements m = warp_frames(scan.index, scan.truth, options);
+    samples = m.samples.size();
+    bytes = m.memory_bytes();
+    frames = m.frames_used;
+  }
+  state.counters["measurements"] = double(samples);
+  state.counters["measurement_MiB"] = double(bytes) / 1048576.0;
+  state.counters["frames"] = double(frames);
+  state.counters["peak_rss_MiB"] = peak_rss_mib();
+}
+
+void BM_PanoramaFuse(benchmark::State& state) {
+  const BenchScan& scan = bench_scan();
+  WarpOptions warp;
+  warp.height = 1024;
+  static std::unique_ptr<PanoramaMeasurements> m;
+  if (!m) m = std::make_unique<PanoramaMeasurements>(warp_frames(scan.index, scan.truth, warp));
+  FusionOptions fusion;
+  fusion.method = DepthFusionMethod(state.range(0));
+  std::size_t iterations = 0;
+  for (auto _ : state) {
+    const Panorama p = fuse(*m, fusion);
+    iterations = p.energy.empty() ? 0 : p.energy.size() - 1;
+  }
+  state.SetLabel(to_string(fusion.method));
+  state.counters["solver_iterations"] = double(iterations);
+  state.counters["peak_rss_MiB"] = peak_rss_mib();
+}
+
+void BM_TsdfBaseline(benchmark::State& state) {
+  const BenchScan& scan = bench_scan();
+  TsdfResult result;
+  for (auto _ : state) result = build_tsdf_baseline(scan.index, scan.truth, TsdfOptions{});
+  state.counters["integrate_s"] = result.integrate_seconds;
+  state.counters["extract_s"] = result.extract_seconds;
+  state.counters["volume_MiB_estimate"] = double(result.memory_bytes) / 1048576.0;
+  state.counters["peak_rss_MiB"] = peak_rss_mib();
+}
+
+}  // namespace
+
+BENCHMARK(BM_PanoramaWarp)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_PanoramaFuse)
+    ->Arg(int(DepthFusionMethod::kAverage))
+    ->Arg(int(DepthFusionMethod::kTvCylindrical))
+    ->Arg(int(DepthFusionMethod::kTsa))
+    ->Arg(int(DepthFusionMethod::kTp))
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1);
+BENCHMARK(BM_TsdfBaseline)->Unit(benchmark::kSecond)->Iterations(1);
+
+BENCHMARK_MAIN();

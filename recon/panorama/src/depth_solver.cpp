@@ -1,0 +1,438 @@
+// Paper §4.2, fusion: colour by averaging; radial depth by minimising Eq. 5,
+//   E(D) = sum_p sum_k |D_p - z_pk| + lambda_b * sum_p S_p(D),
+// with S the TV (on the cylindrical radius or on the radial depth), TSA (Eq. 6) or TP (Eq. 7) term.
+// Solver: L-BFGS with Armijo backtracking on the smoothed energy (|x| -> sqrt(x^2 + eps^2) - eps),
+// started from the per-pixel median (the minimiser of the data term alone).
+// Parallel over pixels with oneTBB; every reduction sums fixed-size chunks in a fixed order, so the
+// result does not depend on the thread count.
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <sstream>
+
+#include <tbb/parallel_for.h>
+
+#include "panoscan/core/error.h"
+#include "panoscan/core/log.h"
+#include "panoscan/recon/panorama.h"
+
+namespace panoscan {
+namespace {
+
+constexpr std::size_t kChunk = 4096;
+
+// Deterministic parallel sum of f(i) over [0, n): fixed chunks, summed in order.
+template <typename F>
+double chunked_sum(std::size_t n, const F& f) {
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  std::vector<double> partial(chunks, 0.0);
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    double sum = 0.0;
+    const std::size_t end = std::min(n, (c + 1) * kChunk);
+    for (std::size_t i = c * kChunk; i < end; ++i) sum += f(i);
+    partial[c] = sum;
+  });
+  double total = 0.0;
+  for (const double value : partial) total += value;
+  return total;
+}
+
+double dot(const std::vector<double>& a, const std::vector<double>& b) {
+  return chunked_sum(a.size(), [&](std::size_t i) { return a[i] * b[i]; });
+}
+
+// The unknowns: one radial depth per pixel with at least one measurement.
+struct DepthProblem {
+  const PanoramaMeasurements* m = nullptr;
+  DepthFusionMethod method = DepthFusionMethod::kTsa;
+  double lambda = 0.0;
+  double data_eps = 0.002, tv_eps = 1e-4, tsa_eps = 1e-7;
+  std::vector<std::size_t> pixel;      // pixel index of each unknown
+  std::vector<Eigen::Vector3d> ray;    // unit direction of each unknown's pixel
+  std::vector<double> sin_theta;
+  std::vector<int> left, right, up, down;  // neighbouring unknowns (azimuth periodic), -1 = none
+
+  struct Parts {
+    double smoothed = 0.0, data = 0.0, smoothness = 0.0;
+  };
+
+  // Per-unknown partial derivatives of the smoothness term anchored at that unknown, by role.
+  mutable std::vector<double> g_anchor, g_left, g_right, g_up, g_down, g_data;
+  // Diagonal of the data term's Hessian at the last evaluate(x, grad): the L-BFGS preconditioner.
+  mutable std::vector<double> data_curvature;
+
+  std::size_t size() const { return pixel.size(); }
+
+  // Value and partials of the smoothness term anchored at unknown i (lambda not applied).
+  // Returns {smoothed, exact}.
+  std::pair<double, double> smoothness_term(const std::vector<double>& x, std::size_t i, double* d_anchor,
+                                            double* d_left, double* d_right, double* d_up, double* d_down) const {
+    *d_anchor = *d_left = *d_right = *d_up = *d_down = 0.0;
+    const int l = left[i], r = right[i], u = up[i], d = down[i];
+    switch (method) {
+      case DepthFusionMethod::kAverage:
+        return {0.0, 0.0};
+      case DepthFusionMethod::kTvCylindrical:
+      case DepthFusionMethod::kTvRadial: {
+        // TV: |grad q| with backward differences, q = D sin(theta) (cylindrical) or q = D.
+        const bool cyl = method == DepthFusionMethod::kTvCylindrical;
+        auto scale = [&](int k) { return cyl ? sin_theta[std::size_t(k)] : 1.0; };
+        if (l < 0 && u < 0) return {0.0, 0.0};
+        const double qi = x[i] * scale(int(i));
+        const double dl = l >= 0 ? qi - x[std::size_t(l)] * scale(l) : 0.0;
+        const double du = u >= 0 ? qi - x[std::size_t(u)] * scale(u) : 0.0;
+        const double norm2 = dl * dl + du * du;
+        const double s = std::sqrt(norm2 + tv_eps * tv_eps);
+        *d_anchor = (dl + du) / s * scale(int(i));
+        if (l >= 0) *d_left = -dl / s * scale(l);
+        if (u >= 0) *d_up = -du / s * scale(u);
+        return {s - tv_eps, std::sqrt(norm2)};
+      }
+      case DepthFusionMethod::kTsa: {
+        // Eq. 6: area |dP_-phi x dP_-theta| of the quad spanned with the left and upper neighbours.
+        if (l < 0 || u < 0) return {0.0, 0.0};
+        const Eigen::Vector3d pi = x[i] * ray[i];
+        const Eigen::Vector3d a = pi - x[std::size_t(l)] * ray[std::size_t(l)];
+        const Eigen::Vector3d b = pi - x[std::size_t(u)] * ray[std::size_t(u)];
+        const Eigen::Vector3d c = a.cross(b);
+        const double norm2 = c.squaredNorm();
+        const double s = std::sqrt(norm2 + tsa_eps * tsa_eps);
+        const Eigen::Vector3d g = c / s;
+        const Eigen::Vector3d grad_a = b.cross(g), grad_b = g.cross(a);
+        *d_anchor = (grad_a + grad_b).dot(ray[i]);
+        *d_left = -grad_a.dot(ray[std::size_t(l)]);
+        *d_up = -grad_b.dot(ray[std::size_t(u)]);
+        return {s - tsa_eps, std::sqrt(norm2)};
+      }
+      case DepthFusionMethod::kTp: {
+        // Eq. 7: |dP_-phi x dP_+phi|^2 + |dP_-theta x dP_+theta|^2.
+        const Eigen::Vector3d pi = x[i] * ray[i];
+        double value = 0.0;
+        auto pair_term = [&](int before, int after, double* d_before, double* d_after) {
+          if (before < 0 || after < 0) return;
+          const Eigen::Vector3d a = pi - x[std::size_t(before)] * ray[std::size_t(before)];
+          const Eigen::Vector3d b = x[std::size_t(after)] * ray[std::size_t(after)] - pi;
+          const Eigen::Vector3d c = a.cross(b);
+          value += c.squaredNorm();
+          const Eigen::Vector3d g = 2.0 * c;
+          const Eigen::Vector3d grad_a = b.cross(g), grad_b = g.cross(a);
+          *d_anchor += (grad_a - grad_b).dot(ray[i]);
+          *d_before += -grad_a.dot(ray[std::size_t(before)]);
+          *d_after += grad_b.dot(ray[std::size_t(after)]);
+        };
+        pair_term(l, r, d_left, d_right);
+        pair_term(u, d, d_up, d_down);
+        return {value, value};
+      }
+    }
+    return {0.0, 0.0};
+  }
+
+  Parts evaluate(const std::vector<double>& x, std::vector<double>* grad) const {
+    const std::size_t n = size();
+    const std::size_t chunks = (n + kChunk - 1) / kChunk;
+    std::vector<Parts> partial(chunks);
+    tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+      Parts sum;
+      const std::size_t end = std::min(n, (c + 1) * kChunk);
+      for (std::size_t i = c * kChunk; i < end; ++i) {
+        // Data term of Eq. 5 over all measurements of the pixel.
+        double g = 0.0, h = 0.0;
+        const std::size_t p = pixel[i];
+        for (std::uint64_t k = m->offsets[p]; k < m->offsets[p + 1]; ++k) {
+          const double r = x[i] - double(m->samples[k].radial_m);
+          const double s = std::sqrt(r * r + data_eps * data_eps);
+          sum.smoothed += s - data_eps;
+          sum.data += std::abs(r);
+          g += r / s;
+          h += data_eps * data_eps / (s * s * s);
+        }
+        g_data[i] = g;
+        if (grad) data_curvature[i] = h;
+        const auto [smoothed, exact] =
+            smoothness_term(x, i, &g_anchor[i], &g_left[i], &g_right[i], &g_up[i], &g_down[i]);
+        sum.smoothed += lambda * smoothed;
+        sum.smoothness += exact;
+      }
+      partial[c] = sum;
+    });
+    Parts total;
+    for (const Parts& p : partial) {
+      total.smoothed += p.smoothed;
+      total.data += p.data;
+      total.smoothness += p.smoothness;
+    }
+    if (grad) {
+      grad->resize(n);
+      // Gather: unknown i is the left neighbour of right[i], the upper neighbour of down[i], ...
+      tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
+        double g = g_anchor[i];
+        if (right[i] >= 0) g += g_left[std::size_t(right[i])];
+        if (left[i] >= 0) g += g_right[std::size_t(left[i])];
+        if (down[i] >= 0) g += g_up[std::size_t(down[i])];
+        if (up[i] >= 0) g += g_down[std::size_t(up[i])];
+        (*grad)[i] = g_data[i] + lambda * g;
+      });
+    }
+    return total;
+  }
+};
+
+EnergyRecord record(int iteration, const DepthProblem::Parts& parts, double lambda) {
+  EnergyRecord r;
+  r.iteration = iteration;
+  r.smoothed = parts.smoothed;
+  r.data = parts.data;
+  r.smoothness = parts.smoothness;
+  r.smoothness_weighted = lambda * parts.smoothness;
+  return r;
+}
+
+// Limited-memory BFGS (two-loop recursion) with Armijo backtracking; the smoothed energy never
+// increases. Returns the energy log (iteration 0 = the start).
+std::vector<EnergyRecord> minimise_lbfgs(const DepthProblem& problem, std::vector<double>& x,
+                                         const FusionOptions& options) {
+  std::vector<EnergyRecord> log;
+  std::vector<double> g, g_new, x_new, direction(x.size());
+  DepthProblem::Parts parts = problem.evaluate(x, &g);
+  log.push_back(record(0, parts, problem.lambda));
+  std::deque<std::pair<std::vector<double>, std::vector<double>>> memory;  // (s, y)
+  std::deque<double> rho;
+  const std::size_t n = x.size();
+  int small_steps = 0;
+  for (int iteration = 1; iteration <= options.iterations; ++iteration) {
+    // Two-loop recursion: direction = -H g.
+    std::vector<double> q = g;
+    std::vector<double> alpha(memory.size());
+    for (std::size_t k = memory.size(); k-- > 0;) {
+      alpha[k] = rho[k] * dot(memory[k].first, q);
+      const auto& y = memory[k].second;
+      const double a = alpha[k];
+      tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) { q[i] -= a * y[i]; });
+    }
+    // Initial inverse Hessian: the inverse of the data term's diagonal curvature (plus a floor for
+    // pixels whose measurements all lie far from the current depth), scaled by the usual
+    // s.y / y.H0.y once curvature pairs exist. The diagonal captures the ill-conditioning of the
+    // smoothed L1 term (curvature up to 1/eps per measurement), which a scalar cannot.
+    std::vector<double> h0(n);
+    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) { h0[i] = 1.0 / (problem.data_curvature[i] + 1.0); });
+    double gamma = 1.0;
+    if (!memory.empty()) {
+      const auto& y = memory.back().second;
+      const double yhy = chunked_sum(n, [&](std::size_t i) { return y[i] * h0[i] * y[i]; });
+      gamma = dot(memory.back().first, y) / yhy;
+    }
+    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) { q[i] *= gamma * h0[i]; });
+    for (std::size_t k = 0; k < memory.size(); ++k) {
+      const double b = rho[k] * dot(memory[k].second, q);
+      const auto& s = memory[k].first;
+      const double a = alpha[k];
+      tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) { q[i] += (a - b) * s[i]; });
+    }
+    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) { direction[i] = -q[i]; });
+    double slope = dot(g, direction);
+    if (!(slope < 0)) {  // not a descent direction: restart from scaled steepest descent
+      memory.clear();
+      rho.clear();
+      double g_max = 0.0;
+      for (const double v : g) g_max = std::max(g_max, std::abs(v));
+      if (g_max == 0) break;
+      tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) { direction[i] = -g[i] * 1e-3 / g_max; });
+      slope = dot(g, direction);
+    }
+    // Armijo backtracking.
+    double step = 1.0;
+    bool accepted = false;
+    DepthProblem::Parts new_parts;
+    x_new.resize(n);
+    for (int trial = 0; trial < 40; ++trial) {
+      tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) { x_new[i] = std::max(1e-3, x[i] + step * direction[i]); });
+      // The gradient comes with the energy: most iterations accept the first trial step.
+      new_parts = problem.evaluate(x_new, &g_new);
+      if (new_parts.smoothed <= parts.smoothed + 1e-4 * step * slope) {
+        accepted = true;
+        break;
+      }
+      step *= 0.5;
+    }
+    if (!accepted) break;
+    std::vector<double> s(n), y(n);
+    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
+      s[i] = x_new[i] - x[i];
+      y[i] = g_new[i] - g[i];
+    });
+    const double sy = dot(s, y);
+    if (sy > 1e-12 * std::sqrt(dot(s, s) * dot(y, y))) {
+      memory.emplace_back(std::move(s), std::move(y));
+      rho.push_back(1.0 / sy);
+      if (int(memory.size()) > options.lbfgs_memory) {
+        memory.pop_front();
+        rho.pop_front();
+      }
+    }
+    const double decrease = parts.smoothed - new_parts.smoothed;
+    x.swap(x_new);
+    g.swap(g_new);
+    parts = new_parts;
+    log.push_back(record(iteration, parts, problem.lambda));
+    small_steps = decrease <= options.relative_tolerance * std::abs(parts.smoothed) ? small_steps + 1 : 0;
+    if (small_steps >= 5) break;
+  }
+  return log;
+}
+
+}  // namespace
+
+const char* to_string(DepthFusionMethod method) {
+  switch (method) {
+    case DepthFusionMethod::kAverage: return "ave";
+    case DepthFusionMethod::kTvCylindrical: return "tv";
+    case DepthFusionMethod::kTvRadial: return "tv-radial";
+    case DepthFusionMethod::kTsa: return "tsa";
+    case DepthFusionMethod::kTp: return "tp";
+  }
+  return "?";
+}
+
+DepthFusionMethod depth_fusion_method_from_string(const std::string& name, const std::string& origin) {
+  if (name == "ave" || name == "average") return DepthFusionMethod::kAverage;
+  if (name == "tv" || name == "tv-l1") return DepthFusionMethod::kTvCylindrical;
+  if (name == "tv-radial") return DepthFusionMethod::kTvRadial;
+  if (name == "tsa" || name == "tsa-l1") return DepthFusionMethod::kTsa;
+  if (name == "tp" || name == "tp-l1") return DepthFusionMethod::kTp;
+  throw make_error(origin, "panorama.method", "unknown method '" + name + "' (ave, tv, tv-radial, tsa, tp)");
+}
+
+double FusionOptions::default_lambda(DepthFusionMethod method) {
+  switch (method) {
+    case DepthFusionMethod::kAverage: return 0.0;
+    case DepthFusionMethod::kTvCylindrical:
+    case DepthFusionMethod::kTvRadial: return 50.0;
+    case DepthFusionMethod::kTsa: return 5e3;
+    case DepthFusionMethod::kTp: return 2e8;
+  }
+  return 0.0;
+}
+
+double FusionOptions::effective_lambda(int height) const {
+  if (lambda >= 0) return lambda;
+  const double ratio = double(height) / double(lambda_reference_height);
+  switch (method) {
+    case DepthFusionMethod::kAverage: return 0.0;
+    case DepthFusionMethod::kTvCylindrical:
+    case DepthFusionMethod::kTvRadial: return default_lambda(method) * ratio;
+    case DepthFusionMethod::kTsa: return default_lambda(method) * ratio * ratio;
+    case DepthFusionMethod::kTp: return default_lambda(method) * std::pow(ratio, 4);
+  }
+  return 0.0;
+}
+
+void FusionOptions::check(const std::string& origin) const {
+  if (!std::isfinite(lambda)) throw make_error(origin, "panorama.lambda", "not finite");
+  if (iterations < 0 || iterations > 100000) throw make_error(origin, "panorama.iterations", "must be in [0, 100000]");
+  if (lbfgs_memory < 1 || lbfgs_memory > 50) throw make_error(origin, "panorama.lbfgs_memory", "must be in [1, 50]");
+  if (!(data_epsilon_m > 0)) throw make_error(origin, "panorama.data_epsilon_m", "must be > 0");
+  if (!(tv_epsilon_m > 0) || !(tsa_epsilon_m2 > 0)) throw make_error(origin, "panorama.epsilon", "must be > 0");
+  if (!(relative_tolerance >= 0)) throw make_error(origin, "panorama.tolerance", "must be >= 0");
+  if (!(max_sigma_m > 0)) throw make_error(origin, "panorama.max_sigma_m", "must be > 0");
+  if (lambda_reference_height < 1) throw make_error(origin, "panorama.lambda_reference_height", "must be >= 1");
+}
+
+Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
+  options.check();
+  const int width = m.pano.width(), height = m.pano.height;
+  const std::size_t pixels = std::size_t(width) * height;
+  if (m.offsets.size() != pixels + 1 || m.offsets.back() != m.samples.size())
+    throw make_error("measurements", "offsets", "do not match the panorama size");
+  Panorama out;
+  out.pano = m.pano;
+  out.world_from_pano = m.world_from_pano;
+  out.method = to_string(options.method);
+  out.lambda = options.effective_lambda(height);
+  out.colour = ImageF32(width, height, 3, 0.f);
+  out.depth = ImageF32(width, height, 1, 0.f);
+  out.variance = ImageF32(width, height, 1, 0.f);
+  out.count = ImageF32(width, height, 1, 0.f);
+  out.flagged = ImageU8(width, height, 1, 0);
+
+  DepthProblem problem;
+  problem.m = &m;
+  problem.method = options.method;
+  problem.lambda = out.lambda;
+  problem.data_eps = options.data_epsilon_m;
+  problem.tv_eps = options.tv_epsilon_m;
+  problem.tsa_eps = options.tsa_epsilon_m2;
+  std::vector<int> unknown_of_pixel(pixels, -1);
+  for (std::size_t p = 0; p < pixels; ++p)
+    if (m.count(p) > 0) {
+      unknown_of_pixel[p] = int(problem.pixel.size());
+      problem.pixel.push_back(p);
+    }
+  const std::size_t n = problem.size();
+  if (n == 0) log_warn("panorama: no measurements at all; the panorama is empty");
+  problem.ray.resize(n);
+  problem.sin_theta.resize(n);
+  problem.left.resize(n);
+  problem.right.resize(n);
+  problem.up.resize(n);
+  problem.down.resize(n);
+  for (auto* g : {&problem.data_curvature, &problem.g_anchor, &problem.g_left, &problem.g_right, &problem.g_up, &problem.g_down, &problem.g_data})
+    g->assign(n, 0.0);
+  std::vector<double> x(n, 0.0);
+  tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
+    const std::size_t p = problem.pixel[i];
+    const int u = int(p % width), v = int(p / width);
+    problem.ray[i] = m.pano.direction(u, v);
+    problem.sin_theta[i] = std::sin(M_PI * (v + 0.5) / height);
+    problem.left[i] = unknown_of_pixel[std::size_t(v) * width + (u + width - 1) % width];
+    problem.right[i] = unknown_of_pixel[std::size_t(v) * width + (u + 1) % width];
+    problem.up[i] = v > 0 ? unknown_of_pixel[std::size_t(v - 1) * width + u] : -1;
+    problem.down[i] = v + 1 < height ? unknown_of_pixel[std::size_t(v + 1) * width + u] : -1;
+    // Start: the per-pixel median (minimises the L1 data term alone); "ERP Ave.": the mean.
+    std::vector<float> radial;
+    radial.reserve(m.count(p));
+    double sum = 0.0;
+    for (std::uint64_t k = m.offsets[p]; k < m.offsets[p + 1]; ++k) {
+      radial.push_back(m.samples[k].radial_m);
+      sum += m.samples[k].radial_m;
+    }
+    if (options.method == DepthFusionMethod::kAverage) {
+      x[i] = sum / double(radial.size());
+    } else {
+      std::nth_element(radial.begin(), radial.begin() + std::ptrdiff_t(radial.size() / 2), radial.end());
+      x[i] = radial[radial.size() / 2];
+    }
+  });
+  if (options.method != DepthFusionMethod::kAverage && n > 0) {
+    out.energy = minimise_lbfgs(problem, x, options);
+    const EnergyRecord& first = out.energy.front();
+    const EnergyRecord& last = out.energy.back();
+    std::ostringstream msg;
+    msg << "panorama " << out.method << " (lambda " << out.lambda << "): " << out.energy.size() - 1
+        << " iterations, energy " << first.total() << " -> " << last.total() << " (data " << last.data
+        << ", lambda*smoothness " << last.smoothness_weighted << ", ratio "
+        << (last.smoothness_weighted > 0 ? last.data / last.smoothness_weighted : 0.0) << ")";
+    log_info(msg.str());
+  }
+  // Colour mean, variance about the solved depth, count, flag.
+  tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
+    const std::size_t p = problem.pixel[i];
+    const int u = int(p % width), v = int(p / width);
+    double rgb[3] = {0, 0, 0}, sq = 0.0;
+    for (std::uint64_t k = m.offsets[p]; k < m.offsets[p + 1]; ++k) {
+      const PanoramaMeasurement& s = m.samples[k];
+      for (int c = 0; c < 3; ++c) rgb[c] += s.rgb[c];
+      const double r = double(s.radial_m) - x[i];
+      sq += r * r;
+    }
+    const double count = double(m.count(p));
+    for (int c = 0; c < 3; ++c) out.colour.at(u, v, c) = float(rgb[c] / count / 255.0);
+    out.depth.at(u, v) = float(x[i]);
+    out.variance.at(u, v) = float(sq / count);
+    out.count.at(u, v) = float(count);
+    out.flagged.at(u, v) = std::sqrt(sq / count) > options.max_sigma_m ? 1 : 0;
+  });
+  return out;
+}
+
+}  // namespace panoscan

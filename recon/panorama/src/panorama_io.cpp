@@ -1,0 +1,196 @@
+// A panorama on disk (what stage 2 reads): float EXRs, PNG previews, the cloud and panorama.json.
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "panoscan/core/atomic_output.h"
+#include "panoscan/core/error.h"
+#include "panoscan/core/image_io.h"
+#include "panoscan/recon/panorama.h"
+
+namespace panoscan {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr const char* kPanoramaFormat = "panoscan-panorama";
+constexpr int kPanoramaVersion = 1;
+
+nlohmann::json pose_json(const Rigid3d& pose) {
+  const Eigen::Quaterniond q(pose.rotation());
+  return {{"translation", {pose.translation().x(), pose.translation().y(), pose.translation().z()}},
+          {"rotation_quaternion_xyzw", {q.x(), q.y(), q.z(), q.w()}}};
+}
+
+Rigid3d pose_from_json(const nlohmann::json& j, const std::string& file) {
+  try {
+    const auto t = j.at("translation").get<std::vector<double>>();
+    const auto q = j.at("rotation_quaternion_xyzw").get<std::vector<double>>();
+    if (t.size() != 3 || q.size() != 4) throw make_error(file, "world_from_pano", "expected 3 + 4 numbers");
+    Eigen::Quaterniond quat(q[3], q[0], q[1], q[2]);
+    if (!(quat.norm() > 0.5) || !std::isfinite(quat.norm()) || !std::isfinite(t[0] + t[1] + t[2]))
+      throw make_error(file, "world_from_pano", "not a valid pose");
+    return make_rigid(quat.normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
+  } catch (const nlohmann::json::exception& e) {
+    throw make_error(file, "world_from_pano", e.what());
+  }
+}
+
+// A small perceptual-ish colour map (dark blue -> cyan -> yellow -> red), t in [0, 1].
+void colour_map(double t, std::uint8_t* rgb) {
+  t = std::clamp(t, 0.0, 1.0);
+  static const double stops[5][3] = {{0.05, 0.05, 0.35}, {0.0, 0.55, 0.85}, {0.3, 0.85, 0.4}, {0.98, 0.85, 0.1},
+                                     {0.8, 0.05, 0.05}};
+  const double s = t * 4.0;
+  const int i = std::min(3, int(s));
+  const double f = s - i;
+  for (int c = 0; c < 3; ++c) rgb[c] = std::uint8_t(std::lround(255.0 * ((1 - f) * stops[i][c] + f * stops[i + 1][c])));
+}
+
+// Colour-mapped preview with a legend bar (low value left, high right) under the image.
+ImageU8 preview(const ImageF32& values, const ImageF32& count, double low, double high) {
+  const int legend = std::max(4, values.height / 16);
+  ImageU8 out(values.width, values.height + legend, 3, 0);
+  for (int v = 0; v < values.height; ++v)
+    for (int u = 0; u < values.width; ++u)
+      if (count.at(u, v) > 0) colour_map((values.at(u, v) - low) / std::max(1e-12, high - low), &out.at(u, v, 0));
+  for (int v = values.height + 1; v < out.height; ++v)
+    for (int u = 0; u < values.width; ++u) colour_map(double(u) / std::max(1, values.width - 1), &out.at(u, v, 0));
+  return out;
+}
+
+double percentile(std::vector<float> values, double q) {
+  if (values.empty()) return 0.0;
+  const std::size_t k = std::min(values.size() - 1, std::size_t(q * double(values.size())));
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(k), values.end());
+  return values[k];
+}
+
+}  // namespace
+
+PointCloud Panorama::to_point_cloud(bool skip_flagged) const {
+  PointCloud cloud;
+  for (int v = 0; v < depth.height; ++v) {
+    for (int u = 0; u < depth.width; ++u) {
+      if (!(count.at(u, v) > 0) || !(depth.at(u, v) > 0)) continue;
+      if (skip_flagged && flagged.at(u, v)) continue;
+      cloud.positions.push_back(world_from_pano * (double(depth.at(u, v)) * pano.direction(u, v)));
+      Rgb8 rgb;
+      for (int c = 0; c < 3; ++c) rgb[c] = std::uint8_t(std::lround(std::clamp(colour.at(u, v, c), 0.f, 1.f) * 255.f));
+      cloud.colours.push_back(rgb);
+      cloud.variances.push_back(variance.at(u, v));
+    }
+  }
+  return cloud;
+}
+
+void write_panorama(const fs::path& dir, const Panorama& panorama, bool overwrite) {
+  AtomicDirectory out(dir, overwrite);
+  const fs::path& tmp = out.temp_path();
+  write_exr(tmp / "colour.exr", panorama.colour, {"R", "G", "B"});
+  write_exr(tmp / "depth.exr", panorama.depth, {"Z"});
+  write_exr(tmp / "variance.exr", panorama.variance, {"V"});
+  write_exr(tmp / "count.exr", panorama.count, {"N"});
+  ImageU8 flags(panorama.flagged.width, panorama.flagged.height, 1, 0);
+  for (std::size_t i = 0; i < flags.data.size(); ++i) flags.data[i] = panorama.flagged.data[i] ? 255 : 0;
+  write_png(tmp / "flags.png", flags);
+  ImageU8 colour(panorama.colour.width, panorama.colour.height, 3, 0);
+  for (std::size_t i = 0; i < colour.data.size(); ++i)
+    colour.data[i] = std::uint8_t(std::lround(std::clamp(panorama.colour.data[i], 0.f, 1.f) * 255.f));
+  write_png(tmp / "colour.png", colour);
+  std::vector<float> depths, sigmas;
+  for (std::size_t i = 0; i < panorama.depth.data.size(); ++i)
+    if (panorama.count.data[i] > 0) {
+      depths.push_back(panorama.depth.data[i]);
+      sigmas.push_back(std::sqrt(panorama.variance.data[i]));
+    }
+  const double depth_high = std::max(0.5, percentile(depths, 0.99));
+  const double sigma_high = std::max(1e-3, percentile(sigmas, 0.95));
+  write_png(tmp / "depth.png", preview(panorama.depth, panorama.count, 0.0, depth_high));
+  ImageF32 sigma(panorama.variance.width, panorama.variance.height, 1, 0.f);
+  for (std::size_t i = 0; i < sigma.data.size(); ++i) sigma.data[i] = std::sqrt(panorama.variance.data[i]);
+  write_png(tmp / "variance.png", preview(sigma, panorama.count, 0.0, sigma_high));
+  const PointCloud cloud = panorama.to_point_cloud(false);
+  PlyWriteOptions ply;
+  ply.comments.push_back("panoscan panorama cloud, method " + panorama.method);
+  write_ply_point_cloud(tmp / "cloud.ply", cloud, ply);
+
+  nlohmann::json j;
+  j["format"] = kPanoramaFormat;
+  j["version"] = kPanoramaVersion;
+  j["height"] = panorama.pano.height;
+  j["width"] = panorama.pano.width();
+  j["world_from_pano"] = pose_json(panorama.world_from_pano);
+  j["axis"] = {{"point", {panorama.world_from_pano.translation().x(), panorama.world_from_pano.translation().y(),
+                          panorama.world_from_pano.translation().z()}},
+               {"direction", {panorama.world_from_pano.linear()(0, 2), panorama.world_from_pano.linear()(1, 2),
+                              panorama.world_from_pano.linear()(2, 2)}}};
+  j["method"] = panorama.method;
+  j["lambda"] = panorama.lambda;
+  j["files"] = {{"colour", "colour.exr (R,G,B linear 0..1)"}, {"depth", "depth.exr (Z, radial metres, 0 = none)"},
+                {"variance", "variance.exr (V, m^2)"}, {"count", "count.exr (N)"}, {"flags", "flags.png (255 = sigma_z above limit)"},
+                {"cloud", "cloud.ply (world frame)"}};
+  j["legend"] = {{"depth_png_m", {0.0, depth_high}}, {"variance_png_sigma_m", {0.0, sigma_high}},
+                 {"colours", "dark blue (low) -> cyan -> green -> yellow -> red (high); bar under the image"}};
+  nlohmann::json energy = nlohmann::json::array();
+  for (const EnergyRecord& e : panorama.energy)
+    energy.push_back({{"iteration", e.iteration}, {"smoothed", e.smoothed}, {"data", e.data},
+                      {"smoothness", e.smoothness}, {"lambda_smoothness", e.smoothness_weighted}});
+  j["energy"] = energy;
+  write_file_atomic(tmp / "panorama.json", j.dump(1) + "\n");
+  out.commit();
+}
+
+Panorama read_panorama(const fs::path& dir) {
+  const fs::path json_path = dir / "panorama.json";
+  std::ifstream in(json_path);
+  if (!in) throw make_error(json_path.string(), "", "cannot open (not a panorama folder?)");
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const nlohmann::json::exception& e) {
+    throw make_error(json_path.string(), "", std::string("not valid JSON: ") + e.what());
+  }
+  if (j.value("format", "") != kPanoramaFormat)
+    throw make_error(json_path.string(), "format", std::string("expected \"") + kPanoramaFormat + "\"");
+  if (j.value("version", 0) != kPanoramaVersion)
+    throw make_error(json_path.string(), "version", "expected " + std::to_string(kPanoramaVersion));
+  Panorama p;
+  try {
+    p.pano.height = j.at("height").get<int>();
+    p.method = j.value("method", "");
+    p.lambda = j.value("lambda", 0.0);
+    for (const auto& e : j.value("energy", nlohmann::json::array())) {
+      EnergyRecord r;
+      r.iteration = e.at("iteration").get<int>();
+      r.smoothed = e.at("smoothed").get<double>();
+      r.data = e.at("data").get<double>();
+      r.smoothness = e.at("smoothness").get<double>();
+      r.smoothness_weighted = e.at("lambda_smoothness").get<double>();
+      p.energy.push_back(r);
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw make_error(json_path.string(), "height", e.what());
+  }
+  if (p.pano.height < 1) throw make_error(json_path.string(), "height", "must be >= 1");
+  if (!j.contains("world_from_pano")) throw make_error(json_path.string(), "world_from_pano", "missing field");
+  p.world_from_pano = pose_from_json(j["world_from_pano"], json_path.string());
+  p.colour = read_exr(dir / "colour.exr", {"R", "G", "B"});
+  p.depth = read_exr(dir / "depth.exr", {"Z"});
+  p.variance = read_exr(dir / "variance.exr", {"V"});
+  p.count = read_exr(dir / "count.exr", {"N"});
+  for (const auto* image : {&p.colour, &p.depth, &p.variance, &p.count})
+    if (image->width != p.pano.width() || image->height != p.pano.height)
+      throw make_error(dir.string(), "size", "an EXR does not match height " + std::to_string(p.pano.height));
+  // The flags as written (flags.png, 255 = flagged); left clear if the PNG has another size.
+  p.flagged = ImageU8(p.pano.width(), p.pano.height, 1, 0);
+  const ImageU8 flags = read_rgb(dir / "flags.png");
+  if (flags.width == p.pano.width() && flags.height == p.pano.height)
+    for (int v = 0; v < p.pano.height; ++v)
+      for (int u = 0; u < p.pano.width(); ++u) p.flagged.at(u, v) = flags.at(u, v, 0) > 127 ? 1 : 0;
+  return p;
+}
+
+}  // namespace panoscan

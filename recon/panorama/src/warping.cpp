@@ -1,0 +1,222 @@
+// Paper §4.2, first step: each RGB-D frame becomes an organised mesh of its adjacent valid depth
+// pixels (edges only where the depths differ by at most lambda_a) and is rasterised into the
+// equirectangular panorama with the model-view T_u^-1 * T_ci; depth becomes the radial distance.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+
+#include <tbb/parallel_for.h>
+
+#include "panoscan/core/error.h"
+#include "panoscan/recon/panorama.h"
+
+namespace panoscan {
+namespace {
+
+struct WarpVertex {
+  Eigen::Vector3d point;  // in the panorama frame
+  double u = 0.0, v = 0.0;  // continuous panorama pixel coordinates
+  double radial = 0.0;
+  const std::uint8_t* rgb = nullptr;
+};
+
+struct FrameJob {
+  int sensor = 0;
+  std::size_t frame = 0;
+};
+
+// Rasterises one triangle; calls emit(pixel_index, radial, rgb) for every panorama pixel centre
+// inside it. Returns false if the triangle encloses a pole (skipped).
+template <typename Emit>
+bool rasterise_triangle(const Equirectangular& pano, const WarpVertex& a, const WarpVertex& b, const WarpVertex& c,
+                        const Emit& emit) {
+  const int width = pano.width();
+  const int height = pano.height;
+  double us[3] = {a.u, b.u, c.u};
+  const double vs[3] = {a.v, b.v, c.v};
+  // Seam at azimuth 0 / 2 pi: a triangle whose columns span more than half the panorama crosses
+  // it; move its left-side vertices by +W and wrap the pixel columns back when emitting.
+  const double u_min0 = std::min({us[0], us[1], us[2]});
+  const double u_max0 = std::max({us[0], us[1], us[2]});
+  if (u_max0 - u_min0 > 0.5 * width)
+    for (double& u : us)
+      if (u < 0.5 * width) u += width;
+  // Pole: the panorama ray straight up or down passes through the triangle (its projection would
+  // wrap all the way round). Only possible when a vertex is near a pole.
+  const WarpVertex* verts[3] = {&a, &b, &c};
+  const Eigen::Vector3d normal = (b.point - a.point).cross(c.point - a.point);
+  const double normal_norm = normal.norm();
+  if (normal_norm <= 0.0) return true;
+  for (const WarpVertex* vtx : verts) {
+    if (std::abs(vtx->point.z()) > 0.9 * vtx->radial) {
+      for (const double sign : {1.0, -1.0}) {
+        // Does the ray t * (0, 0, sign) hit the triangle? Signs of the three edge volumes.
+        const Eigen::Vector3d d(0, 0, sign);
+        const double s0 = d.dot(a.point.cross(b.point));
+        const double s1 = d.dot(b.point.cross(c.point));
+        const double s2 = d.dot(c.point.cross(a.point));
+        if ((s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0)) return false;
+      }
+      break;
+    }
+  }
+  const double u_lo = std::min({us[0], us[1], us[2]}), u_hi = std::max({us[0], us[1], us[2]});
+  const double v_lo = std::min({vs[0], vs[1], vs[2]}), v_hi = std::max({vs[0], vs[1], vs[2]});
+  const int ui0 = int(std::ceil(u_lo)), ui1 = int(std::floor(u_hi));
+  const int vi0 = std::max(0, int(std::ceil(v_lo))), vi1 = std::min(height - 1, int(std::floor(v_hi)));
+  if (ui1 < ui0 || vi1 < vi0) return true;
+  if (double(ui1 - ui0 + 1) * double(vi1 - vi0 + 1) > 4096.0) return true;  // degenerate sliver
+  const double area2 = (us[1] - us[0]) * (vs[2] - vs[0]) - (us[2] - us[0]) * (vs[1] - vs[0]);
+  if (std::abs(area2) < 1e-12) return true;
+  const double r_min = std::min({a.radial, b.radial, c.radial});
+  const double r_max = std::max({a.radial, b.radial, c.radial});
+  for (int v = vi0; v <= vi1; ++v) {
+    for (int u = ui0; u <= ui1; ++u) {
+      // Barycentric coordinates of the pixel centre in panorama pixel space.
+      const double w1 = ((u - us[0]) * (vs[2] - vs[0]) - (us[2] - us[0]) * (v - vs[0])) / area2;
+      const double w2 = ((us[1] - us[0]) * (v - vs[0]) - (u - us[0]) * (vs[1] - vs[0])) / area2;
+      const double w0 = 1.0 - w1 - w2;
+      if (w0 < 0.0 || w1 < 0.0 || w2 < 0.0) continue;
+      const int u_wrapped = ((u % width) + width) % width;
+      // Radial depth: where the pixel's ray meets the triangle's plane (the 3D position is
+      // interpolated along the ray, exact for planar surfaces); barycentric fallback where the
+      // plane is grazing.
+      const Eigen::Vector3d ray = pano.direction(u_wrapped, v);
+      const double denom = normal.dot(ray);
+      double radial = -1.0;
+      if (std::abs(denom) > 1e-6 * normal_norm) radial = normal.dot(a.point) / denom;
+      if (!(radial >= 0.9 * r_min && radial <= 1.01 * r_max)) radial = w0 * a.radial + w1 * b.radial + w2 * c.radial;
+      std::uint8_t rgb[3];
+      for (int ch = 0; ch < 3; ++ch)
+        rgb[ch] = std::uint8_t(std::lround(std::clamp(w0 * a.rgb[ch] + w1 * b.rgb[ch] + w2 * c.rgb[ch], 0.0, 255.0)));
+      emit(std::size_t(v) * width + u_wrapped, float(radial), rgb);
+    }
+  }
+  return true;
+}
+
+// Warps one frame: builds the organised mesh (two triangles per 2x2 block of valid pixels whose
+// depths differ pairwise by at most lambda_a) and rasterises it.
+template <typename Emit>
+std::size_t warp_frame(const RgbdFrame& frame, const PinholeIntrinsics& intrinsics, const Rigid3d& pano_from_cam,
+                       const Equirectangular& pano, const WarpOptions& options, const Emit& emit) {
+  const int w = frame.depth.width, h = frame.depth.height;
+  std::vector<WarpVertex> vertices(std::size_t(w) * h);
+  std::vector<char> valid(std::size_t(w) * h, 0);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const float z = frame.depth.at(x, y);
+      if (!(z > 0.f) || !std::isfinite(z) || z < options.min_depth_m) continue;
+      if (options.max_depth_m > 0 && z > options.max_depth_m) continue;
+      WarpVertex& vtx = vertices[std::size_t(y) * w + x];
+      vtx.point = pano_from_cam * intrinsics.backproject(x, y, z);
+      vtx.radial = vtx.point.norm();
+      if (!(vtx.radial > 1e-6)) continue;
+      const Eigen::Vector2d pixel = pano.pixel(vtx.point);
+      vtx.u = pixel.x();
+      vtx.v = pixel.y();
+      vtx.rgb = &frame.rgb.data[(std::size_t(y) * w + x) * 3];
+      valid[std::size_t(y) * w + x] = 1;
+    }
+  }
+  const double jump = options.max_edge_depth_jump_m;
+  auto connected = [&](std::size_t i, std::size_t j) {
+    return std::abs(double(frame.depth.data[i]) - double(frame.depth.data[j])) <= jump;
+  };
+  std::size_t pole_skips = 0;
+  for (int y = 0; y + 1 < h; ++y) {
+    for (int x = 0; x + 1 < w; ++x) {
+      const std::size_t i00 = std::size_t(y) * w + x, i10 = i00 + 1, i01 = i00 + w, i11 = i01 + 1;
+      // Triangle (00, 10, 01) and triangle (10, 11, 01).
+      if (valid[i00] && valid[i10] && valid[i01] && connected(i00, i10) && connected(i00, i01) && connected(i10, i01))
+        if (!rasterise_triangle(pano, vertices[i00], vertices[i10], vertices[i01], emit)) ++pole_skips;
+      if (valid[i10] && valid[i11] && valid[i01] && connected(i10, i11) && connected(i11, i01) && connected(i10, i01))
+        if (!rasterise_triangle(pano, vertices[i10], vertices[i11], vertices[i01], emit)) ++pole_skips;
+    }
+  }
+  return pole_skips;
+}
+
+bool pose_is_finite(const Rigid3d& pose) { return pose.matrix().allFinite(); }
+
+}  // namespace
+
+void WarpOptions::check(const std::string& origin) const {
+  if (height < 4 || height > 16384) throw make_error(origin, "panorama.height", "must be in [4, 16384]");
+  if (!(max_edge_depth_jump_m > 0)) throw make_error(origin, "panorama.lambda_a_m", "must be > 0");
+  if (!(min_depth_m >= 0)) throw make_error(origin, "panorama.min_depth_m", "must be >= 0");
+  if (!(max_depth_m >= 0)) throw make_error(origin, "panorama.max_depth_m", "must be >= 0 (0 = no limit)");
+  if (max_depth_m > 0 && max_depth_m <= min_depth_m)
+    throw make_error(origin, "panorama.max_depth_m", "must exceed panorama.min_depth_m");
+  if (frame_stride < 1) throw make_error(origin, "panorama.frame_stride", "must be >= 1");
+}
+
+PanoramaMeasurements warp_frames(const ScanIndex& scan, const RigTrajectory& trajectory, const WarpOptions& options) {
+  options.check();
+  check_rig_trajectory(trajectory, scan, "poses");
+  if (!pose_is_finite(trajectory.world_from_axis)) throw make_error("poses", "world_from_axis", "not finite");
+  PanoramaMeasurements out;
+  out.pano.height = options.height;
+  out.world_from_pano = trajectory.world_from_axis;
+  const Rigid3d pano_from_world = trajectory.world_from_axis.inverse();
+  std::vector<FrameJob> jobs;
+  for (std::size_t s = 0; s < scan.frames.size(); ++s)
+    for (std::size_t f = 0; f < scan.frames[s].size(); f += std::size_t(options.frame_stride))
+      jobs.push_back({int(s), f});
+  if (jobs.empty()) throw make_error(scan.root.string(), "frames", "the scan has no frames");
+  if (scan.frames.size() > 255) throw make_error(scan.root.string(), "sensors", "more than 255 sensors");
+  const std::size_t pixels = std::size_t(out.pano.width()) * out.pano.height;
+
+  auto pano_from_cam = [&](const FrameJob& job) {
+    return Rigid3d(pano_from_world * trajectory.world_from_cam[job.sensor][job.frame].world_from_cam);
+  };
+  // Pass 1: count the measurements per pixel. Pass 2: scatter them into the CSR array (positions
+  // within a pixel depend on the scheduling), then sort each pixel's set, which makes the layout
+  // independent of the thread count. Frames are read twice to keep memory to the CSR array alone.
+  std::vector<std::atomic<std::uint32_t>> counts(pixels);
+  for (auto& count : counts) count.store(0, std::memory_order_relaxed);
+  std::atomic<std::size_t> pole_skips{0};
+  tbb::parallel_for(std::size_t(0), jobs.size(), [&](std::size_t j) {
+    const FrameJob& job = jobs[j];
+    const RgbdFrame frame = load_frame(scan, job.sensor, job.frame);
+    pole_skips += warp_frame(frame, scan.rig.sensors[job.sensor].intrinsics, pano_from_cam(job), out.pano, options,
+                             [&](std::size_t pixel, float, const std::uint8_t*) {
+                               counts[pixel].fetch_add(1, std::memory_order_relaxed);
+                             });
+  });
+  out.offsets.assign(pixels + 1, 0);
+  for (std::size_t p = 0; p < pixels; ++p) out.offsets[p + 1] = out.offsets[p] + counts[p].load();
+  out.samples.resize(out.offsets[pixels]);
+  for (auto& count : counts) count.store(0, std::memory_order_relaxed);
+  tbb::parallel_for(std::size_t(0), jobs.size(), [&](std::size_t j) {
+    const FrameJob& job = jobs[j];
+    const RgbdFrame frame = load_frame(scan, job.sensor, job.frame);
+    warp_frame(frame, scan.rig.sensors[job.sensor].intrinsics, pano_from_cam(job), out.pano, options,
+               [&](std::size_t pixel, float radial, const std::uint8_t* rgb) {
+                 const std::uint32_t slot = counts[pixel].fetch_add(1, std::memory_order_relaxed);
+                 if (out.offsets[pixel] + slot >= out.offsets[pixel + 1]) return;  // cannot happen: same input
+                 PanoramaMeasurement& m = out.samples[out.offsets[pixel] + slot];
+                 m.radial_m = radial;
+                 m.rgb[0] = rgb[0];
+                 m.rgb[1] = rgb[1];
+                 m.rgb[2] = rgb[2];
+                 m.sensor = std::uint8_t(job.sensor);
+                 m.frame = std::uint32_t(job.frame);
+               });
+  });
+  tbb::parallel_for(std::size_t(0), pixels, [&](std::size_t p) {
+    auto begin = out.samples.begin() + std::ptrdiff_t(out.offsets[p]);
+    auto end = out.samples.begin() + std::ptrdiff_t(out.offsets[p + 1]);
+    std::sort(begin, end, [](const PanoramaMeasurement& x, const PanoramaMeasurement& y) {
+      if (x.sensor != y.sensor) return x.sensor < y.sensor;
+      if (x.frame != y.frame) return x.frame < y.frame;
+      if (x.radial_m != y.radial_m) return x.radial_m < y.radial_m;
+      return std::lexicographical_compare(x.rgb, x.rgb + 3, y.rgb, y.rgb + 3);
+    });
+  });
+  out.frames_used = jobs.size();
+  out.triangles_skipped_at_poles = pole_skips.load();
+  return out;
+}
+
+}  // namespace panoscan

@@ -1,0 +1,62 @@
+// The whole method on one scene (SPEC §2): per scanning position, tracking (§4.1, or given
+// poses) and panorama construction (§4.2); then registration between panoramas (§5.1), a pose
+// graph when the registrations are redundant, and MAP integration (§5.2) into one cloud.
+//
+// Frames: the scene frame is the frame of the first scan's tracking (its reference camera's
+// first frame), or, with given trajectories, whatever frame those are in. Panorama k sits at
+// world_from_panorama[k] in it.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "panoscan/recon/stage2.h"
+#include "panoscan/recon/tracking.h"
+
+namespace panoscan {
+
+struct SceneScan {
+  std::string name;                          // e.g. "SO-1"
+  ScanIndex scan;
+  std::optional<RigTrajectory> trajectory;   // given poses (e.g. ground truth); tracked if empty
+};
+
+struct SceneOptions {
+  TrackingOptions tracking;
+  PanoramaOptions panorama;
+  PairRegistrationOptions registration;
+  IntegrationOptions integration;
+  PoseGraphOptions pose_graph;
+  // Pairs of scans registered: consecutive scans (in the order given) must register; every
+  // other pair is tried too and used when it succeeds (redundancy for the pose graph).
+  bool register_all_pairs = true;
+};
+
+struct PairEdge {
+  int source = 0, target = 0;
+  PairRegistration registration;
+};
+
+struct SceneResult {
+  std::vector<RigTrajectory> trajectories;
+  std::vector<Panorama> panoramas;
+  std::vector<Rigid3d> world_from_panorama;
+  std::vector<PairEdge> edges;
+  std::vector<std::string> skipped_pairs;  // "SO-1 -> SO-4: <reason>"
+  bool pose_graph_used = false;
+  IntegrationResult integration;
+  double seconds_tracking = 0, seconds_panorama = 0, seconds_registration = 0, seconds_integration = 0;
+};
+
+// Throws Error when a consecutive pair does not register (naming the pair) or a stage fails.
+SceneResult reconstruct_scene(const std::vector<SceneScan>& scans, const SceneOptions& options);
+
+// Keys: those of tracking_options_from_config (track.*, frontend.*), panorama_options_from_config
+// (panorama.*), and registration.{method (gicp-ours), max_correspondence_m (0.15), max_iterations (50),
+// covariance (measured | handa-model), pixel_stride (1), min_observations (2), max_sigma_m (0.15),
+// all_pairs (true)}, integration.{method (map | average | align), weighting (information |
+// paper-inverse-sqrt)}, seed, threads.
+SceneOptions scene_options_from_config(Config& config);
+
+}  // namespace panoscan

@@ -1,0 +1,67 @@
+// Stage 2 of the method (paper §5) on built panoramas: registration between panoramas and their
+// integration into one scene cloud.
+//
+// A panorama pixel becomes a point P^A = D * direction(pixel) (panorama frame) with the measurement
+// covariance of Eq. 9, J diag(sigma_phi^2, sigma_theta^2, sigma_z^2) J^T, sigma_phi = sigma_theta =
+// 0.5 pi / H, where sigma_z is the pixel's measured std ("measured", the paper's) or the Handa
+// model's at that depth ("handa-model", Table 4's "Def."). Pixels with sigma_z > 0.15 m are dropped
+// first (§6.3), and so are pixels seen fewer than min_observations times.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "panoscan/recon/feature_alignment.h"
+#include "panoscan/recon/integration.h"
+#include "panoscan/recon/panorama.h"
+#include "panoscan/recon/pose_graph.h"
+#include "panoscan/recon/registration.h"
+
+namespace panoscan {
+
+enum class DepthCovarianceModel { kMeasured, kHandaModel };
+
+struct PanoramaCloudOptions {
+  DepthCovarianceModel covariance = DepthCovarianceModel::kMeasured;
+  double max_sigma_m = 0.15;   // drop pixels whose measured sigma_z exceeds this (§6.3)
+  int min_observations = 2;    // a variance needs at least two measurements
+  int pixel_stride = 1;        // use every n-th row and column (speed; 1 = all pixels)
+  SurfaceOptions surface;
+};
+
+// Points, measurement covariances, confidences (counts) and surfaces of a panorama, in its own
+// frame; `pixels` receives the pixel index of each point when given.
+RegistrationCloud panorama_registration_cloud(const Panorama& panorama, const PanoramaCloudOptions& options,
+                                              std::vector<std::size_t>* pixels = nullptr);
+
+struct PairRegistrationOptions {
+  IcpOptions icp;
+  FeatureAlignmentOptions features;
+  PanoramaCloudOptions cloud;
+  // The final pose must explain at least this fraction of the RANSAC inliers of the feature
+  // guess; otherwise the registration is reported as failed (an Error).
+  double min_consistent_fraction = 0.5;
+  double consistency_threshold_m = 0.05;
+};
+
+struct PairRegistration {
+  Rigid3d target_from_source = Rigid3d::Identity();
+  FeatureAlignment guess;  // the ORB guess (also when an initial pose was given: used to verify)
+  IcpResult icp;
+  int consistent_matches = 0;
+};
+
+// Registers `source` onto `target`: the initial pose is `given_initial` if not null, else the ORB
+// guess; then ICP with options.icp; then the result is checked against the feature matches.
+// Throws Error (naming the two panoramas by `source_name` / `target_name`) when the ORB guess
+// fails and no initial pose is given, or when the final pose contradicts the features.
+PairRegistration register_panorama_pair(const Panorama& source, const Panorama& target,
+                                        const PairRegistrationOptions& options, const Rigid3d* given_initial,
+                                        const std::string& source_name, const std::string& target_name);
+
+// The panorama's points for integration (scene frame from `world_from_panorama`), with Eq. 9's
+// covariance (surface + measurement) and colours.
+PanoramaPoints panorama_integration_points(const Panorama& panorama, const Rigid3d& world_from_panorama,
+                                           const PanoramaCloudOptions& options);
+
+}  // namespace panoscan

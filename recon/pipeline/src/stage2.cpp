@@ -1,0 +1,112 @@
+#include "panoscan/recon/stage2.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "panoscan/core/error.h"
+#include "panoscan/recon/point_covariance.h"
+
+namespace panoscan {
+
+namespace {
+
+// Handa et al.'s depth std (SPEC §11): sigma_Z = Z^2 / 351.3 / 3 (radial ~ z for the centre rays).
+double handa_model_sigma(double depth_m) { return depth_m * depth_m / 351.3 / 3.0; }
+
+}  // namespace
+
+RegistrationCloud panorama_registration_cloud(const Panorama& panorama, const PanoramaCloudOptions& options,
+                                              std::vector<std::size_t>* pixels) {
+  const Equirectangular& pano = panorama.pano;
+  const int width = pano.width(), height = pano.height;
+  const int stride = std::max(1, options.pixel_stride);
+  const double sigma_angle = 0.5 * M_PI / height;
+  RegistrationCloud cloud;
+  if (pixels) pixels->clear();
+  for (int v = 0; v < height; v += stride)
+    for (int u = 0; u < width; u += stride) {
+      const double depth = panorama.depth.at(u, v);
+      if (!(depth > 0)) continue;
+      const double count = panorama.count.at(u, v);
+      const double sigma_measured = std::sqrt(std::max(0.0, double(panorama.variance.at(u, v))));
+      if (count < options.min_observations || sigma_measured > options.max_sigma_m) continue;
+      const double sigma = options.covariance == DepthCovarianceModel::kMeasured
+                               ? std::max(sigma_measured, 1e-4)  // a pixel is never exact
+                               : handa_model_sigma(depth);
+      cloud.points.push_back(pano.direction(u, v) * depth);
+      cloud.measurement_covariances.push_back(equirectangular_point_covariance(
+          2 * M_PI * (u + 0.5) / width, M_PI * (v + 0.5) / height, depth, sigma_angle, sigma));
+      cloud.confidence.push_back(float(count));
+      if (pixels) pixels->push_back(std::size_t(v) * width + u);
+    }
+  if (cloud.points.size() < 10)
+    throw make_error("", "panorama", "has fewer than 10 usable pixels (depth, >= " +
+                                         std::to_string(options.min_observations) + " observations, sigma_z <= " +
+                                         std::to_string(options.max_sigma_m) + " m)");
+  prepare_surface(cloud, Eigen::Vector3d::Zero(), options.surface);
+  return cloud;
+}
+
+PairRegistration register_panorama_pair(const Panorama& source, const Panorama& target,
+                                        const PairRegistrationOptions& options, const Rigid3d* given_initial,
+                                        const std::string& source_name, const std::string& target_name) {
+  const std::string pair = source_name + " -> " + target_name;
+  auto to_u8 = [](const ImageF32& colour) {
+    ImageU8 out(colour.width, colour.height, 3);
+    for (std::size_t i = 0; i < colour.data.size(); ++i)
+      out.data[i] = static_cast<std::uint8_t>(std::clamp(colour.data[i] * 255.f + 0.5f, 0.f, 255.f));
+    return out;
+  };
+  const ImageU8 source_rgb = to_u8(source.colour), target_rgb = to_u8(target.colour);
+  PairRegistration result;
+  result.guess = align_panorama_features({&source_rgb, &source.depth}, {&target_rgb, &target.depth}, options.features);
+  Rigid3d initial;
+  if (given_initial) {
+    initial = *given_initial;
+  } else if (result.guess.success) {
+    initial = result.guess.target_from_source;
+  } else {
+    throw make_error(pair, "initial guess", "ORB feature alignment failed (" + result.guess.failure +
+                                                "); give an initial pose");
+  }
+  const RegistrationCloud source_cloud = panorama_registration_cloud(source, options.cloud);
+  const RegistrationCloud target_cloud = panorama_registration_cloud(target, options.cloud);
+  try {
+    result.icp = register_icp(source_cloud, target_cloud, initial, options.icp);
+  } catch (const Error& e) {
+    throw make_error(pair, "", e.what());
+  }
+  result.target_from_source = result.icp.target_from_source;
+  // Verification: the geometry alone cannot tell a wrong local minimum in a box-like room; the
+  // feature matches can (a wrong pose explains few of them).
+  if (result.guess.inliers >= options.features.min_inliers) {
+    result.consistent_matches =
+        count_consistent_matches(result.guess, result.target_from_source, options.consistency_threshold_m);
+    if (result.consistent_matches < options.min_consistent_fraction * result.guess.inliers)
+      throw make_error(pair, "registration",
+                       "failed: the final pose explains only " + std::to_string(result.consistent_matches) + " of " +
+                           std::to_string(result.guess.inliers) + " verified feature matches (initial guess wrong?)");
+  }
+  return result;
+}
+
+PanoramaPoints panorama_integration_points(const Panorama& panorama, const Rigid3d& world_from_panorama,
+                                           const PanoramaCloudOptions& options) {
+  std::vector<std::size_t> pixels;
+  const RegistrationCloud cloud = panorama_registration_cloud(panorama, options, &pixels);
+  PanoramaPoints points;
+  points.world_from_panorama = world_from_panorama;
+  points.points = cloud.points;
+  points.covariances.resize(cloud.points.size());
+  points.colours.resize(cloud.points.size());
+  const int width = panorama.pano.width();
+  for (std::size_t i = 0; i < cloud.points.size(); ++i) {
+    points.covariances[i] = cloud.surface_covariances[i] + cloud.measurement_covariances[i];  // Eq. 9's Omega^A
+    const int u = int(pixels[i] % width), v = int(pixels[i] / width);
+    for (int c = 0; c < 3; ++c)
+      points.colours[i][c] = static_cast<std::uint8_t>(std::clamp(panorama.colour.at(u, v, c) * 255.f + 0.5f, 0.f, 255.f));
+  }
+  return points;
+}
+
+}  // namespace panoscan

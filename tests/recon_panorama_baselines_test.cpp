@@ -1,0 +1,184 @@
+// The TSDF baseline (Tables 1 and 3) and the driver of the first version of Table 3:
+//   ./recon_panorama_baselines_test --gtest_also_run_disabled_tests --gtest_filter=*Table3*
+// (environment: TABLE3_WIDTH (640), TABLE3_EVERY (16), TABLE3_HEIGHT (1024) panorama rows,
+// TABLE3_TSDF_VOXEL_MM (5), TABLE3_OFFICE_ONLY (0), TABLE3_LAMBDA_PERCENT (100)). The 5 mm TSDF of a whole room takes ~8 GB and
+// many minutes with Open3D (its coloured voxels hold doubles).
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "panoscan/core/error.h"
+#include "panoscan/eval/groundtruth.h"
+#include "panoscan/eval/mesh_distance.h"
+#include "panoscan/recon/panorama.h"
+#include "panoscan/recon/surfel_baseline.h"
+#include "panoscan/recon/tsdf_baseline.h"
+#include "panoscan/scenes/scenes.h"
+#include "panoscan/sim/simulator.h"
+#include "test_util.h"
+
+using namespace panoscan;
+
+namespace {
+
+// Open3D's loops use OpenMP, whose idle threads spin by default: on a shared 2-core machine that
+// made integration 40x slower. Passive waiting is set before the OpenMP runtime starts.
+[[maybe_unused]] const bool kPassiveOpenMp = [] { return ::setenv("OMP_WAIT_POLICY", "PASSIVE", 0) == 0; }();
+
+double rmse_against_mesh(const eval::MeshDistance& mesh, const std::vector<Eigen::Vector3d>& points) {
+  const std::vector<double> d = mesh.distances(points);
+  double s = 0;
+  for (double x : d) s += x * x;
+  return std::sqrt(s / double(d.size()));
+}
+
+int env_int(const char* name, int fallback) {
+  const char* v = std::getenv(name);
+  return v ? std::atoi(v) : fallback;
+}
+
+}  // namespace
+
+TEST(TsdfBaseline, OfficeMeshIsCloseToTheTruth) {
+  const Scene scene = scenes::make_builtin_scene("office");
+  SimOptions options;
+  options.rig.width = 160;
+  options.rig.height = 120;
+  options.output.every = 30;
+  options.seed = 7;
+  testutil::TempDir tmp("tsdf");
+  Simulator(scene, 0, options).write_scan(tmp / "scan", false);
+  const ScanIndex scan = read_scan_index(tmp / "scan");
+  const RigTrajectory truth = eval::groundtruth_rig_trajectory(tmp / "scan");
+  TsdfOptions tsdf;
+  tsdf.voxel_m = 0.01;  // the low-resolution scan does not support 5 mm voxels
+  tsdf.frame_stride = 2;
+  const TsdfResult result = build_tsdf_baseline(scan, truth, tsdf);
+  ASSERT_GT(result.mesh.triangles.size(), 1000u);
+  const eval::MeshDistance mesh(scene.mesh);
+  const double rmse = rmse_against_mesh(mesh, result.vertices.positions);
+  std::vector<double> d = mesh.distances(result.vertices.positions);
+  std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
+  EXPECT_LT(d[d.size() / 2], 0.01);
+  std::cout << "TSDF: median " << d[d.size() / 2] * 1e3 << " mm, " << result.vertices.size() << " vertices, rmse " << rmse * 1e3 << " mm, " << result.volume_units
+            << " blocks, ~" << result.memory_bytes / 1048576.0 << " MiB, integrate " << result.integrate_seconds
+            << " s\n";
+  EXPECT_LT(rmse, 0.05);  // 160x120 depth with Handa noise: blobby, but no gross error
+  EXPECT_GT(result.memory_bytes, 0u);
+
+  RigTrajectory short_poses = truth;
+  short_poses.world_from_cam[0].pop_back();
+  EXPECT_THROW(build_tsdf_baseline(scan, short_poses, tsdf), Error);
+  tsdf.truncation_m = 0.001;
+  EXPECT_THROW(build_tsdf_baseline(scan, truth, tsdf), Error);
+}
+
+std::vector<Eigen::Vector3d> panorama_points(const ImageF32& depth, const Rigid3d& world_from_pano,
+                                             const Equirectangular& pano) {
+  std::vector<Eigen::Vector3d> points;
+  for (int v = 0; v < depth.height; ++v)
+    for (int u = 0; u < depth.width; ++u)
+      if (depth.at(u, v) > 0) points.push_back(world_from_pano * (double(depth.at(u, v)) * pano.direction(u, v)));
+  return points;
+}
+
+TEST(SurfelBaseline, OfficeSurfelsAndRaycastAreCloseToTheTruth) {
+  const Scene scene = scenes::make_builtin_scene("office");
+  SimOptions options;
+  options.rig.width = 160;
+  options.rig.height = 120;
+  options.output.every = 30;
+  options.seed = 7;
+  testutil::TempDir tmp("surfels");
+  Simulator(scene, 0, options).write_scan(tmp / "scan", false);
+  const ScanIndex scan = read_scan_index(tmp / "scan");
+  const RigTrajectory truth = eval::groundtruth_rig_trajectory(tmp / "scan");
+  const eval::MeshDistance mesh(scene.mesh);
+  SurfelOptions surfel_options;
+  surfel_options.direction_bins_height = 256;
+  const SurfelResult four = build_surfel_baseline(scan, truth, surfel_options);
+  surfel_options.max_depth_m = 3.0;
+  const SurfelResult three = build_surfel_baseline(scan, truth, surfel_options);
+  ASSERT_GT(four.surfels.size(), 1000u);
+  EXPECT_LT(three.surfels.size(), four.surfels.size());
+  const double rmse4 = rmse_against_mesh(mesh, four.surfels.positions);
+  const double rmse3 = rmse_against_mesh(mesh, three.surfels.positions);
+  Equirectangular pano;
+  pano.height = 128;
+  const ImageF32 rc = raycast_surfels(four, truth.world_from_axis, pano);
+  const double rmse_rc = rmse_against_mesh(mesh, panorama_points(rc, truth.world_from_axis, pano));
+  std::cout << "surfels: 4 m " << four.surfels.size() << " rmse " << rmse4 * 1e3 << " mm; 3 m " << three.surfels.size()
+            << " rmse " << rmse3 * 1e3 << " mm; ray-cast rmse " << rmse_rc * 1e3 << " mm; " << four.seconds << " s\n";
+  EXPECT_LT(rmse4, 0.03);
+  EXPECT_LT(rmse3, rmse4);
+  EXPECT_LT(rmse_rc, 0.05);
+}
+
+// First version of the paper's Table 3: RMSE (mm) of each method's cloud against the
+// ground-truth mesh, same (ground-truth) poses, Handa noise. Panorama columns: all pixels / pixels
+// not flagged (sigma_z <= 0.15 m, the §6.3 pre-processing).
+TEST(Table3, DISABLED_FusionMethodsOnBuiltinScans) {
+  const int width = env_int("TABLE3_WIDTH", 640);
+  const int every = env_int("TABLE3_EVERY", 16);
+  const int height = env_int("TABLE3_HEIGHT", 1024);
+  testutil::TempDir tmp("table3");
+  std::cout << "| position | TSDF | Surfels-4m | Surfels-4m (RC) | ERP Ave. | TV-L1 | TV (radial) | TSA-L1 | TP-L1 |\n|---|---|---|---|---|---|---|---|---|\n";
+  std::vector<std::pair<std::string, int>> positions = {{"living_room", 0}, {"office", 0}};
+  if (env_int("TABLE3_OFFICE_ONLY", 0)) positions = {{"office", 0}};
+  for (const auto& [scene_name, position] : positions) {
+    const Scene scene = scenes::make_builtin_scene(scene_name);
+    SimOptions options;
+    options.rig.width = width;
+    options.rig.height = width * 3 / 4;
+    options.output.every = every;
+    options.seed = 1;
+    const auto dir = tmp / (scene_name + std::to_string(position));
+    Simulator(scene, position, options).write_scan(dir, false);
+    const ScanIndex scan = read_scan_index(dir);
+    const RigTrajectory truth = eval::groundtruth_rig_trajectory(dir);
+    const eval::MeshDistance mesh(scene.mesh);
+    std::ostringstream row;
+    row << "| " << scene.positions[std::size_t(position)].name << " | ";
+    TsdfOptions tsdf_options;
+    tsdf_options.voxel_m = env_int("TABLE3_TSDF_VOXEL_MM", 5) * 1e-3;
+    const TsdfResult tsdf = build_tsdf_baseline(scan, truth, tsdf_options);
+    row << std::fixed << std::setprecision(2) << rmse_against_mesh(mesh, tsdf.vertices.positions) * 1e3 << " | ";
+    std::cerr << "TSDF: " << tsdf.memory_bytes / 1048576.0 << " MiB, " << tsdf.integrate_seconds << " s\n";
+    const SurfelResult surfels = build_surfel_baseline(scan, truth, SurfelOptions{});
+    Equirectangular pano;
+    pano.height = height;
+    const ImageF32 rc = raycast_surfels(surfels, truth.world_from_axis, pano);
+    row << rmse_against_mesh(mesh, surfels.surfels.positions) * 1e3 << " | "
+        << rmse_against_mesh(mesh, panorama_points(rc, truth.world_from_axis, pano)) * 1e3 << " | ";
+    std::cerr << "surfels: " << surfels.surfels.size() << ", " << surfels.memory_bytes / 1048576.0 << " MiB, "
+              << surfels.seconds << " s\n";
+    WarpOptions warp;
+    warp.height = height;
+    const auto t0 = std::chrono::steady_clock::now();
+    const PanoramaMeasurements m = warp_frames(scan, truth, warp);
+    std::cerr << "warp: " << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s, "
+              << m.samples.size() << " measurements, " << m.memory_bytes() / 1048576.0 << " MiB\n";
+    for (const auto method : {DepthFusionMethod::kAverage, DepthFusionMethod::kTvCylindrical,
+                              DepthFusionMethod::kTvRadial, DepthFusionMethod::kTsa, DepthFusionMethod::kTp}) {
+      FusionOptions fusion;
+      fusion.method = method;
+      // TABLE3_LAMBDA_PERCENT: lambda as a percentage of the (resolution-scaled) default.
+      fusion.lambda = fusion.effective_lambda(height) * env_int("TABLE3_LAMBDA_PERCENT", 100) / 100.0;
+      const auto t1 = std::chrono::steady_clock::now();
+      const Panorama p = fuse(m, fusion);
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+      const double rmse = rmse_against_mesh(mesh, p.to_point_cloud().positions);
+      const double rmse_unflagged = rmse_against_mesh(mesh, p.to_point_cloud(true).positions);
+      std::cerr << to_string(method) << ": " << rmse * 1e3 << " mm, " << seconds << " s, "
+                << (p.energy.empty() ? 0.0 : p.energy.back().data / p.energy.back().smoothness_weighted)
+                << " data/smoothness\n";
+      row << rmse * 1e3 << " / " << rmse_unflagged * 1e3 << " | ";
+    }
+    std::cout << row.str() << std::endl;
+  }
+}

@@ -1,0 +1,5 @@
+# Panorama construction (paper §4.2): warping, Eq. 5-7 solvers, variance, files, bad input; TSDF baseline.
+panoscan_add_test(recon_panorama_test SOURCES recon_panorama_test.cpp
+  DEPS panoscan_recon_panorama panoscan_sim panoscan_scenes panoscan_eval TBB::tbb LABELS recon panorama)
+panoscan_add_test(recon_panorama_baselines_test SOURCES recon_panorama_baselines_test.cpp
+  DEPS panoscan_recon_panorama panoscan_sim panoscan_scenes panoscan_eval LABELS recon panorama)

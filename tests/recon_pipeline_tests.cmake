@@ -1,0 +1,2 @@
+panoscan_add_test(recon_stage2_test SOURCES recon_stage2_test.cpp
+  DEPS panoscan_recon_pipeline panoscan_sim panoscan_scenes panoscan_eval LABELS e2e)
