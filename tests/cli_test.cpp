@@ -81,6 +81,22 @@ TEST(Cli, BadInputExitsNonZeroNamingFileAndField) {
   EXPECT_EQ(count_entries(tmp.path()), 4u);  // corrupt.obj, negative.yaml, unknown.yaml, a_file
 }
 
+TEST(Cli, ReconCommandsRejectBadInputNamingTheFileOrField) {
+  panoscan::testutil::TempDir tmp("cli-recon");
+  const std::string missing = (tmp / "no-such-scan").string();
+  expect_failure_naming(run("recon track --scan " + missing + " --out " + (tmp / "t").string()), {"no-such-scan"});
+  expect_failure_naming(run("recon panorama --scan " + missing + " --poses ground-truth --out " + (tmp / "p").string()),
+                        {"no-such-scan"});
+  expect_failure_naming(run("recon scene --scans " + missing + " --poses sideways --out " + (tmp / "s").string()),
+                        {"--poses"});
+  expect_failure_naming(run("recon panorama --scan " + missing + " --method blur --out " + (tmp / "p").string()),
+                        {"panorama.method"});
+  expect_failure_naming(run("recon scene --scans " + missing + " --set registration.method=icp-best --out " +
+                            (tmp / "s").string()),
+                        {"registration.method"});
+  EXPECT_EQ(count_entries(tmp.path()), 0u);  // nothing written
+}
+
 TEST(Cli, SimWritesAScanAndRefusesToOverwriteIt) {
   panoscan::testutil::TempDir tmp("cli-sim");
   const std::string out = (tmp / "scan").string();
