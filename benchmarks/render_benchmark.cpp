@@ -38,7 +38,10 @@ std::vector<Rigid3d> view_poses(const Simulator& sim, int count) {
   return poses;
 }
 
-void BM_RaysBareEmbree(benchmark::State& state) {
+// Bare Embree over the same rays as the full render: `intersect` is the renderer's single-ray or
+// packet loop over a block of rows.
+template <typename Intersect>
+void bare_embree(benchmark::State& state, Intersect intersect) {
   const Simulator sim(office(), 0, full_size_options());
   const auto poses = view_poses(sim, 30);
   const PinholeIntrinsics& k = sim.rig().intrinsics;
@@ -48,7 +51,7 @@ void BM_RaysBareEmbree(benchmark::State& state) {
     hits += tbb::parallel_reduce(
         tbb::blocked_range<int>(0, k.height, 8), std::size_t(0),
         [&](const tbb::blocked_range<int>& rows, std::size_t sum) {
-          return sum + sim.renderer().intersect_only(pose, k, rows.begin(), rows.end());
+          return sum + intersect(sim.renderer(), pose, k, rows.begin(), rows.end());
         },
         std::plus<>());
   }
@@ -56,22 +59,16 @@ void BM_RaysBareEmbree(benchmark::State& state) {
   state.counters["rays_per_s"] = benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
 }
 
+void BM_RaysBareEmbree(benchmark::State& state) {
+  bare_embree(state, [](const Renderer& r, const Rigid3d& pose, const PinholeIntrinsics& k, int begin, int end) {
+    return r.intersect_only(pose, k, begin, end);
+  });
+}
+
 void BM_RaysBareEmbreePackets(benchmark::State& state) {
-  const Simulator sim(office(), 0, full_size_options());
-  const auto poses = view_poses(sim, 30);
-  const PinholeIntrinsics& k = sim.rig().intrinsics;
-  std::size_t view = 0, hits = 0;
-  for (auto _ : state) {
-    const Rigid3d& pose = poses[view++ % poses.size()];
-    hits += tbb::parallel_reduce(
-        tbb::blocked_range<int>(0, k.height, 8), std::size_t(0),
-        [&](const tbb::blocked_range<int>& rows, std::size_t sum) {
-          return sum + sim.renderer().intersect_only_packets(pose, k, rows.begin(), rows.end());
-        },
-        std::plus<>());
-  }
-  benchmark::DoNotOptimize(hits);
-  state.counters["rays_per_s"] = benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
+  bare_embree(state, [](const Renderer& r, const Rigid3d& pose, const PinholeIntrinsics& k, int begin, int end) {
+    return r.intersect_only_packets(pose, k, begin, end);
+  });
 }
 
 // Depth + colour + normals + ids + Handa noise + exposure: everything but the PNG files.

@@ -13,6 +13,7 @@
 
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
+#include "test_util.h"
 
 namespace panoscan {
 namespace {
@@ -43,17 +44,7 @@ class ConfigFileTest : public ::testing::Test {
   fs::path dir_;
 };
 
-// Runs `action`, expects it to throw Error, and returns the message (empty if it did not throw).
-template <typename Action>
-std::string error_of(Action&& action) {
-  try {
-    action();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected panoscan::Error to be thrown";
-  return "";
-}
+using testutil::error_of;
 
 const char* const kNestedYaml =
     "noise:\n"

@@ -18,6 +18,7 @@
 #include "panoscan/core/geometry.h"
 #include "panoscan/core/image_io.h"
 #include "panoscan/core/trajectory.h"
+#include "test_util.h"
 
 namespace panoscan {
 namespace {
@@ -54,16 +55,7 @@ class IoTest : public ::testing::Test {
   fs::path dir_;
 };
 
-template <typename Action>
-std::string error_of(Action&& action) {
-  try {
-    action();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected panoscan::Error to be thrown";
-  return "";
-}
+using testutil::error_of;
 
 // An image whose every sample differs from its neighbours, so swapped channels or rows show.
 ImageU8 make_rgb(int width, int height) {

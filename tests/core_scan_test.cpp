@@ -23,6 +23,7 @@
 #include "panoscan/core/image_io.h"
 #include "panoscan/core/mesh_io.h"
 #include "panoscan/core/scan.h"
+#include "test_util.h"
 
 namespace panoscan {
 namespace {
@@ -36,16 +37,7 @@ constexpr int kHeight = 6;
 constexpr int kSensors = 3;
 constexpr int kFrames = 4;
 
-template <typename Action>
-std::string error_of(Action&& action) {
-  try {
-    action();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected panoscan::Error to be thrown";
-  return "";
-}
+using testutil::error_of;
 
 RigInfo make_rig(int sensors = kSensors) {
   RigInfo rig;

@@ -28,16 +28,7 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-template <typename Action>
-std::string error_of(Action&& action) {
-  try {
-    action();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected panoscan::Error to be thrown";
-  return "";
-}
+using testutil::error_of;
 
 // Closed box [0, 2] x [0, 1] x [0, 1.5].
 TriangleMesh box_mesh() {

@@ -7,9 +7,25 @@
 
 #include <unistd.h>
 
+#include <gtest/gtest.h>
+
+#include "panoscan/core/error.h"
 #include "panoscan/core/mesh.h"
 
 namespace panoscan::testutil {
+
+// Runs `action`, expects it to throw panoscan::Error, and returns the message (empty, with a
+// test failure, if it did not throw).
+template <typename Action>
+std::string error_of(Action&& action) {
+  try {
+    action();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected panoscan::Error to be thrown";
+  return "";
+}
 
 // A fresh directory under the system temp dir, removed when the object goes away.
 class TempDir {
