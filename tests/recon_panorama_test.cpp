@@ -422,7 +422,9 @@ TEST(PanoramaOptions, RejectOutOfRange) {
   EXPECT_EQ(depth_fusion_method_from_string("tsa-l1", "x"), DepthFusionMethod::kTsa);
 }
 
-TEST(PanoramaExperiment, DISABLED_LambdaSweep) {
+#ifdef PANOSCAN_EXPERIMENTS
+// Built only into benchmarks' panorama_experiments program (not a CTest test).
+TEST(PanoramaExperiment, LambdaSweep) {
   const SimulatedScan& s = box_noisy();
   const ImageF32 truth = s.truth_depth(128);
   const auto mask = flat_interior(s, 128);
@@ -451,3 +453,4 @@ TEST(PanoramaExperiment, DISABLED_LambdaSweep) {
     }
   }
 }
+#endif  // PANOSCAN_EXPERIMENTS
