@@ -45,6 +45,7 @@
 #include <nlohmann/json.hpp>
 
 #include "panoscan/core/atomic_output.h"
+#include "panoscan/core/pose_json.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/image_io.h"
 #include "panoscan/core/mesh_io.h"
@@ -61,7 +62,6 @@ constexpr const char* kListingHeader = "# timestamp filename\n";
 // Guards against absurd sizes whose pixel count would overflow or exhaust memory.
 constexpr int kMaxImageSide = 1 << 15;
 // A stored quaternion must be unit length to this tolerance (rig.json keeps full double precision).
-constexpr double kQuaternionNormTolerance = 1e-6;
 // The reference camera's ref_from_cam must be identity to this tolerance.
 constexpr double kReferenceIdentityTolerance = 1e-9;
 // Rotation matrices in a RigInfo must be orthonormal to this tolerance.
@@ -144,18 +144,6 @@ std::string read_string(const json& value, const std::string& origin, const std:
   return value.get<std::string>();
 }
 
-std::vector<double> read_number_list(const json& value, std::size_t expected_size, const std::string& origin,
-                                     const std::string& field) {
-  if (!value.is_array() || value.size() != expected_size) {
-    throw make_error(origin, field,
-                     "expected a list of " + std::to_string(expected_size) + " numbers, found " + json_type_text(value));
-  }
-  std::vector<double> numbers;
-  for (std::size_t i = 0; i < value.size(); ++i) {
-    numbers.push_back(read_number(value[i], origin, field + "[" + std::to_string(i) + "]"));
-  }
-  return numbers;
-}
 
 void reject_unknown_fields(const json& object, const std::set<std::string>& known, const std::string& origin,
                            const std::string& object_field) {
@@ -168,22 +156,6 @@ void reject_unknown_fields(const json& object, const std::set<std::string>& know
   }
 }
 
-Rigid3d read_pose(const json& object, const std::string& origin, const std::string& field) {
-  if (!object.is_object()) throw make_error(origin, field, "expected an object, found " + json_type_text(object));
-  reject_unknown_fields(object, {"translation", "rotation_quaternion_xyzw"}, origin, field);
-  const std::vector<double> t =
-      read_number_list(require_field(object, "translation", origin, field), 3, origin, field + ".translation");
-  const std::string rotation_field = field + ".rotation_quaternion_xyzw";
-  const std::vector<double> q =
-      read_number_list(require_field(object, "rotation_quaternion_xyzw", origin, field), 4, origin, rotation_field);
-  Eigen::Quaterniond rotation(q[3], q[0], q[1], q[2]);  // Eigen's constructor order is (w, x, y, z)
-  if (std::abs(rotation.norm() - 1.0) > kQuaternionNormTolerance) {
-    throw make_error(origin, rotation_field,
-                     "quaternion is not unit length (norm " + std::to_string(rotation.norm()) + ")");
-  }
-  rotation.normalize();
-  return make_rigid(rotation, Eigen::Vector3d(t[0], t[1], t[2]));
-}
 
 // Checks the invariants of a RigInfo, whether it was read from rig.json or built in memory
 // (the writer validates before writing, so that it never produces a rig.json the reader refuses).
@@ -382,8 +354,6 @@ std::string rig_to_json(const RigInfo& rig) {
   validate_rig(rig, "rig");
   json sensors = json::array();
   for (const SensorInfo& sensor : rig.sensors) {
-    const Eigen::Quaterniond rotation(sensor.ref_from_cam.linear());
-    const Eigen::Vector3d translation = sensor.ref_from_cam.translation();
     json sensor_json;
     sensor_json["name"] = sensor.name;
     sensor_json["width"] = sensor.intrinsics.width;
@@ -394,9 +364,7 @@ std::string rig_to_json(const RigInfo& rig) {
     sensor_json["cy"] = sensor.intrinsics.cy;
     sensor_json["depth_scale"] = sensor.depth_scale;
     sensor_json["nominal_fps"] = sensor.nominal_fps;
-    sensor_json["ref_from_cam"] = {
-        {"translation", {translation.x(), translation.y(), translation.z()}},
-        {"rotation_quaternion_xyzw", {rotation.x(), rotation.y(), rotation.z(), rotation.w()}}};
+    sensor_json["ref_from_cam"] = pose_to_json(sensor.ref_from_cam);
     sensors.push_back(std::move(sensor_json));
   }
   json document;
@@ -474,7 +442,7 @@ RigInfo rig_from_json(const std::string& text, const std::string& origin) {
     sensor.intrinsics.cy = read_number(required("cy"), origin, sub("cy"));
     sensor.depth_scale = read_positive_number(required("depth_scale"), origin, sub("depth_scale"));
     sensor.nominal_fps = read_positive_number(required("nominal_fps"), origin, sub("nominal_fps"));
-    sensor.ref_from_cam = read_pose(required("ref_from_cam"), origin, sub("ref_from_cam"));
+    sensor.ref_from_cam = pose_from_json(required("ref_from_cam"), origin, sub("ref_from_cam"));
     rig.sensors.push_back(std::move(sensor));
   }
   validate_rig(rig, origin);  // names, duplicates, reference identity

@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "panoscan/core/pose_json.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/scan.h"
 
@@ -18,14 +19,6 @@ Eigen::Vector3d vector_field(const nlohmann::json& j, const std::string& file, c
   return {j[0].get<double>(), j[1].get<double>(), j[2].get<double>()};
 }
 
-Rigid3d pose_field(const nlohmann::json& j, const std::string& file, const std::string& field) {
-  if (!j.is_object() || !j.contains("translation") || !j.contains("rotation_quaternion_xyzw"))
-    throw make_error(file, field, "expected a pose {translation, rotation_quaternion_xyzw}");
-  const Eigen::Vector3d t = vector_field(j["translation"], file, field + ".translation");
-  const auto& q = j["rotation_quaternion_xyzw"];
-  if (!q.is_array() || q.size() != 4) throw make_error(file, field + ".rotation_quaternion_xyzw", "expected 4 numbers");
-  return make_rigid(Eigen::Quaterniond(q[3].get<double>(), q[0].get<double>(), q[1].get<double>(), q[2].get<double>()), t);
-}
 
 }  // namespace
 
@@ -51,7 +44,7 @@ RigTrajectory groundtruth_rig_trajectory(const fs::path& scan_dir) {
       throw make_error(file, "sensors", "does not match rig.json's sensor count");
     for (std::size_t c = 0; c < sensors.size(); ++c)
       trajectory.ref_from_cam.push_back(
-          pose_field(sensors[c].at("ref_from_cam_true"), file, "sensors[" + std::to_string(c) + "].ref_from_cam_true"));
+          pose_from_json(sensors[c].at("ref_from_cam_true"), file, "sensors[" + std::to_string(c) + "].ref_from_cam_true"));
     const int reference = scan.rig.reference_sensor;
     if (trajectory.world_from_cam[reference].empty())
       throw make_error(file, "reference sensor", "has no frames");

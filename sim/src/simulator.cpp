@@ -7,6 +7,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "panoscan/core/pose_json.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
 #include "panoscan/core/random.h"
@@ -16,11 +17,6 @@ namespace panoscan {
 
 namespace {
 
-nlohmann::json pose_json(const Rigid3d& pose) {
-  const Eigen::Quaterniond q(pose.linear());
-  return {{"translation", {pose.translation().x(), pose.translation().y(), pose.translation().z()}},
-          {"rotation_quaternion_xyzw", {q.x(), q.y(), q.z(), q.w()}}};
-}
 
 nlohmann::json vec_json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
@@ -83,23 +79,23 @@ std::string Simulator::rig_truth_json() const {
   j["duration_s"] = motion_.duration();
   j["axis"] = {{"point", vec_json(motion_.axis_point())},
                {"direction", vec_json(motion_.axis_direction())},
-               {"world_from_axis_at_start", pose_json(motion_.world_from_axis(0.0))}};
-  j["axis_from_bracket"] = pose_json(rig_.axis_from_bracket);
+               {"world_from_axis_at_start", pose_to_json(motion_.world_from_axis(0.0))}};
+  j["axis_from_bracket"] = pose_to_json(rig_.axis_from_bracket);
   // The paper's T_u in its own convention: the world is the first frame of the reference camera.
   const auto& reference_frames = schedule_[rig_.reference_sensor];
   if (!reference_frames.empty()) {
     const double t0 = reference_frames.front().timestamp;
     j["axis_in_reference_first_frame"] =
-        pose_json(world_from_cam(rig_.reference_sensor, t0).inverse() *
+        pose_to_json(world_from_cam(rig_.reference_sensor, t0).inverse() *
                   motion_.world_from_axis(t0 - options_.shutter.start_time_s));
   }
   j["reference_sensor"] = rig_.reference_sensor;
   for (std::size_t c = 0; c < rig_.num_sensors(); ++c) {
     j["sensors"].push_back({{"name", "cam" + std::to_string(c)},
                             {"pitch_deg", rad2deg(rig_.pitches_rad[c])},
-                            {"bracket_from_cam", pose_json(rig_.bracket_from_cam[c])},
-                            {"ref_from_cam_true", pose_json(rig_.ref_from_cam_true[c])},
-                            {"ref_from_cam_calibrated", pose_json(rig_.ref_from_cam_calibrated[c])},
+                            {"bracket_from_cam", pose_to_json(rig_.bracket_from_cam[c])},
+                            {"ref_from_cam_true", pose_to_json(rig_.ref_from_cam_true[c])},
+                            {"ref_from_cam_calibrated", pose_to_json(rig_.ref_from_cam_calibrated[c])},
                             {"frames", schedule_[c].size()}});
   }
   const auto& m = options_.motion;

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "panoscan/core/atomic_output.h"
+#include "panoscan/core/pose_json.h"
 #include "panoscan/core/error.h"
 
 namespace fs = std::filesystem;
@@ -14,27 +15,6 @@ namespace fs = std::filesystem;
 namespace panoscan {
 
 namespace {
-
-nlohmann::json pose_json(const Rigid3d& pose) {
-  const Eigen::Quaterniond q(pose.linear());
-  return {{"translation", {pose.translation().x(), pose.translation().y(), pose.translation().z()}},
-          {"rotation_quaternion_xyzw", {q.x(), q.y(), q.z(), q.w()}}};
-}
-
-Rigid3d pose_from_json(const nlohmann::json& j, const std::string& file, const std::string& field) {
-  try {
-    const auto& t = j.at("translation");
-    const auto& q = j.at("rotation_quaternion_xyzw");
-    if (t.size() != 3 || q.size() != 4) throw make_error(file, field, "expected 3 translation and 4 quaternion values");
-    const Eigen::Vector3d translation(t[0].get<double>(), t[1].get<double>(), t[2].get<double>());
-    Eigen::Quaterniond rotation(q[3].get<double>(), q[0].get<double>(), q[1].get<double>(), q[2].get<double>());
-    if (!translation.allFinite() || !rotation.coeffs().allFinite() || rotation.norm() < 1e-6)
-      throw make_error(file, field, "non-finite or zero pose");
-    return make_rigid(rotation.normalized(), translation);
-  } catch (const nlohmann::json::exception& e) {
-    throw make_error(file, field, std::string("malformed pose: ") + e.what());
-  }
-}
 
 }  // namespace
 
@@ -73,9 +53,9 @@ void write_rig_trajectory(const fs::path& dir, const RigTrajectory& trajectory, 
   j["format"] = "panoscan-rig-trajectory";
   j["version"] = 1;
   j["source"] = trajectory.source;
-  j["world_from_axis"] = pose_json(trajectory.world_from_axis);
+  j["world_from_axis"] = pose_to_json(trajectory.world_from_axis);
   j["ref_from_cam"] = nlohmann::json::array();
-  for (const Rigid3d& pose : trajectory.ref_from_cam) j["ref_from_cam"].push_back(pose_json(pose));
+  for (const Rigid3d& pose : trajectory.ref_from_cam) j["ref_from_cam"].push_back(pose_to_json(pose));
   write_file_atomic(dir / "rig_estimate.json", j.dump(2) + "\n");
 }
 

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "panoscan/core/atomic_output.h"
+#include "panoscan/core/pose_json.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/image_io.h"
 #include "panoscan/recon/panorama.h"
@@ -17,26 +18,6 @@ namespace {
 namespace fs = std::filesystem;
 constexpr const char* kPanoramaFormat = "panoscan-panorama";
 constexpr int kPanoramaVersion = 1;
-
-nlohmann::json pose_json(const Rigid3d& pose) {
-  const Eigen::Quaterniond q(pose.rotation());
-  return {{"translation", {pose.translation().x(), pose.translation().y(), pose.translation().z()}},
-          {"rotation_quaternion_xyzw", {q.x(), q.y(), q.z(), q.w()}}};
-}
-
-Rigid3d pose_from_json(const nlohmann::json& j, const std::string& file) {
-  try {
-    const auto t = j.at("translation").get<std::vector<double>>();
-    const auto q = j.at("rotation_quaternion_xyzw").get<std::vector<double>>();
-    if (t.size() != 3 || q.size() != 4) throw make_error(file, "world_from_pano", "expected 3 + 4 numbers");
-    Eigen::Quaterniond quat(q[3], q[0], q[1], q[2]);
-    if (!(quat.norm() > 0.5) || !std::isfinite(quat.norm()) || !std::isfinite(t[0] + t[1] + t[2]))
-      throw make_error(file, "world_from_pano", "not a valid pose");
-    return make_rigid(quat.normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
-  } catch (const nlohmann::json::exception& e) {
-    throw make_error(file, "world_from_pano", e.what());
-  }
-}
 
 // A small perceptual-ish colour map (dark blue -> cyan -> yellow -> red), t in [0, 1].
 void colour_map(double t, std::uint8_t* rgb) {
@@ -122,7 +103,7 @@ void write_panorama(const fs::path& dir, const Panorama& panorama, bool overwrit
   j["version"] = kPanoramaVersion;
   j["height"] = panorama.pano.height;
   j["width"] = panorama.pano.width();
-  j["world_from_pano"] = pose_json(panorama.world_from_pano);
+  j["world_from_pano"] = pose_to_json(panorama.world_from_pano);
   j["axis"] = {{"point", {panorama.world_from_pano.translation().x(), panorama.world_from_pano.translation().y(),
                           panorama.world_from_pano.translation().z()}},
                {"direction", {panorama.world_from_pano.linear()(0, 2), panorama.world_from_pano.linear()(1, 2),
@@ -176,7 +157,7 @@ Panorama read_panorama(const fs::path& dir) {
   }
   if (p.pano.height < 1) throw make_error(json_path.string(), "height", "must be >= 1");
   if (!j.contains("world_from_pano")) throw make_error(json_path.string(), "world_from_pano", "missing field");
-  p.world_from_pano = pose_from_json(j["world_from_pano"], json_path.string());
+  p.world_from_pano = pose_from_json(j["world_from_pano"], json_path.string(), "world_from_pano");
   p.colour = read_exr(dir / "colour.exr", {"R", "G", "B"});
   p.depth = read_exr(dir / "depth.exr", {"Z"});
   p.variance = read_exr(dir / "variance.exr", {"V"});

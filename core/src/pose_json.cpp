@@ -1,0 +1,62 @@
+#include "panoscan/core/pose_json.h"
+
+#include <cmath>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "panoscan/core/error.h"
+
+namespace panoscan {
+
+namespace {
+
+constexpr double kQuaternionNormTolerance = 1e-6;
+
+// "object 123" style description of a JSON value for error messages (shortened).
+std::string describe(const nlohmann::json& value) {
+  std::string dumped = value.dump();
+  if (dumped.size() > 40) dumped = dumped.substr(0, 37) + "...";
+  return std::string(value.type_name()) + " " + dumped;
+}
+
+std::vector<double> numbers(const nlohmann::json& object, const char* name, std::size_t count, const std::string& file,
+                            const std::string& field) {
+  const std::string where = field + "." + name;
+  if (!object.contains(name)) throw make_error(file, where, "missing field");
+  const nlohmann::json& list = object.at(name);
+  if (!list.is_array() || list.size() != count)
+    throw make_error(file, where, "expected a list of " + std::to_string(count) + " numbers, found " + describe(list));
+  std::vector<double> values;
+  for (std::size_t i = 0; i < count; ++i) {
+    const std::string element = where + "[" + std::to_string(i) + "]";
+    if (!list[i].is_number()) throw make_error(file, element, "expected a number, found " + describe(list[i]));
+    values.push_back(list[i].get<double>());
+    if (!std::isfinite(values.back())) throw make_error(file, element, "expected a finite number");
+  }
+  return values;
+}
+
+}  // namespace
+
+nlohmann::json pose_to_json(const Rigid3d& pose) {
+  const Eigen::Quaterniond q(pose.linear());
+  return {{"translation", {pose.translation().x(), pose.translation().y(), pose.translation().z()}},
+          {"rotation_quaternion_xyzw", {q.x(), q.y(), q.z(), q.w()}}};
+}
+
+Rigid3d pose_from_json(const nlohmann::json& object, const std::string& file, const std::string& field) {
+  if (!object.is_object()) throw make_error(file, field, "expected an object, found " + describe(object));
+  for (const auto& item : object.items())
+    if (item.key() != "translation" && item.key() != "rotation_quaternion_xyzw")
+      throw make_error(file, field + "." + item.key(), "unknown field (a typo?)");
+  const std::vector<double> t = numbers(object, "translation", 3, file, field);
+  const std::vector<double> q = numbers(object, "rotation_quaternion_xyzw", 4, file, field);
+  Eigen::Quaterniond rotation(q[3], q[0], q[1], q[2]);  // Eigen's constructor order is (w, x, y, z)
+  if (std::abs(rotation.norm() - 1.0) > kQuaternionNormTolerance)
+    throw make_error(file, field + ".rotation_quaternion_xyzw",
+                     "quaternion is not unit length (norm " + std::to_string(rotation.norm()) + ")");
+  return make_rigid(rotation.normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
+}
+
+}  // namespace panoscan
