@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "panoscan/core/atomic_output.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
@@ -243,12 +244,14 @@ void run_recon_scene(const ReconSceneArguments& a) {
   if (a.align_to_ground_truth && a.poses == "tracked")
     cloud = transformed(cloud, scene_from_reconstruction(a.scans[0], result.trajectories[0],
                                                          scans[0].scan.rig.reference_sensor));
-  fs::create_directories(a.out);
-  write_ply_point_cloud(fs::path(a.out) / "cloud.ply", cloud);
+  // Everything goes into a temporary sibling folder that replaces `out` only when complete.
+  AtomicDirectory output(a.out, a.overwrite);
+  write_ply_point_cloud(output.temp_path() / "cloud.ply", cloud);
   for (std::size_t k = 0; k < scans.size(); ++k) {
-    write_panorama(fs::path(a.out) / (scans[k].name + "-panorama"), result.panoramas[k], a.overwrite);
-    write_rig_trajectory(fs::path(a.out) / (scans[k].name + "-poses"), result.trajectories[k], scans[k].scan.rig);
+    write_panorama(output.temp_path() / (scans[k].name + "-panorama"), result.panoramas[k], false);
+    write_rig_trajectory(output.temp_path() / (scans[k].name + "-poses"), result.trajectories[k], scans[k].scan.rig);
   }
+  output.commit();
   std::cout << fmt::format("scene of {} scans: {} registrations ({} skipped{}), {} points ({} merged groups); "
                            "times: tracking {:.1f} s, panoramas {:.1f} s, registration {:.1f} s, integration {:.1f} s; "
                            "wrote {}/cloud.ply\n",
