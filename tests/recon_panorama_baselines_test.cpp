@@ -37,23 +37,31 @@ double rmse_against_mesh(const eval::MeshDistance& mesh, const std::vector<Eigen
   return std::sqrt(s / double(d.size()));
 }
 
-int env_int(const char* name, int fallback) {
-  const char* v = std::getenv(name);
-  return v ? std::atoi(v) : fallback;
-}
-
-}  // namespace
-
-TEST(TsdfBaseline, OfficeMeshIsCloseToTheTruth) {
-  const Scene scene = scenes::make_builtin_scene("office");
+// Office SO-1 at 160x120, every 30th frame, Handa noise: small enough for the baselines' tests.
+ScanIndex simulate_small_office_scan(const Scene& scene, const std::filesystem::path& dir) {
   SimOptions options;
   options.rig.width = 160;
   options.rig.height = 120;
   options.output.every = 30;
   options.seed = 7;
+  Simulator(scene, 0, options).write_scan(dir, false);
+  return read_scan_index(dir);
+}
+
+#ifdef PANOSCAN_EXPERIMENTS
+// Settings of the Table 3 driver from the environment.
+int env_int(const char* name, int fallback) {
+  const char* v = std::getenv(name);
+  return v ? std::atoi(v) : fallback;
+}
+#endif
+
+}  // namespace
+
+TEST(TsdfBaseline, OfficeMeshIsCloseToTheTruth) {
   testutil::TempDir tmp("tsdf");
-  Simulator(scene, 0, options).write_scan(tmp / "scan", false);
-  const ScanIndex scan = read_scan_index(tmp / "scan");
+  const Scene scene = scenes::make_builtin_scene("office");
+  const ScanIndex scan = simulate_small_office_scan(scene, tmp / "scan");
   const RigTrajectory truth = eval::groundtruth_rig_trajectory(tmp / "scan");
   TsdfOptions tsdf;
   tsdf.voxel_m = 0.01;  // the low-resolution scan does not support 5 mm voxels
@@ -88,15 +96,9 @@ std::vector<Eigen::Vector3d> panorama_points(const ImageF32& depth, const Rigid3
 }
 
 TEST(SurfelBaseline, OfficeSurfelsAndRaycastAreCloseToTheTruth) {
-  const Scene scene = scenes::make_builtin_scene("office");
-  SimOptions options;
-  options.rig.width = 160;
-  options.rig.height = 120;
-  options.output.every = 30;
-  options.seed = 7;
   testutil::TempDir tmp("surfels");
-  Simulator(scene, 0, options).write_scan(tmp / "scan", false);
-  const ScanIndex scan = read_scan_index(tmp / "scan");
+  const Scene scene = scenes::make_builtin_scene("office");
+  const ScanIndex scan = simulate_small_office_scan(scene, tmp / "scan");
   const RigTrajectory truth = eval::groundtruth_rig_trajectory(tmp / "scan");
   const eval::MeshDistance mesh(scene.mesh);
   SurfelOptions surfel_options;

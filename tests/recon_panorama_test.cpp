@@ -145,6 +145,22 @@ double median(std::vector<double> e) {
   return e[e.size() / 2];
 }
 
+// Mean signed error where the walls are near (truth below the median depth, seen head-on) minus
+// where they are far (seen obliquely): positive for sphere-like bending of flat walls.
+double near_minus_far_bias(const Panorama& p, const ImageF32& truth, const std::vector<std::size_t>& pixels) {
+  std::vector<double> depths;
+  for (std::size_t i : pixels) depths.push_back(truth.data[i]);
+  const double depth_median = median(depths);
+  double near_sum = 0, far_sum = 0;
+  int near_n = 0, far_n = 0;
+  for (std::size_t i : pixels) {
+    const double signed_error = double(p.depth.data[i]) - truth.data[i];
+    if (truth.data[i] < depth_median) near_sum += signed_error, ++near_n;
+    else far_sum += signed_error, ++far_n;
+  }
+  return near_sum / near_n - far_sum / far_n;
+}
+
 }  // namespace
 
 // Noiseless depth + true poses: the warped panorama is the true one up to the rasterisation error.
@@ -254,19 +270,7 @@ TEST(PanoramaFusion, FlatWallsTsaAndTpBeatAveragingTvRadialCurves) {
     std::vector<std::size_t> pixels;
     const std::vector<double> e = abs_errors(p, truth, &pixels, &mask);
     err[to_string(method)] = rmse(e);
-    // Curvature: mean signed error where the walls are near (truth below the median, seen
-    // head-on) minus where they are far (seen obliquely); positive for sphere-like bending.
-    std::vector<double> depths;
-    for (std::size_t i : pixels) depths.push_back(truth.data[i]);
-    const double depth_median = median(depths);
-    double near_sum = 0, far_sum = 0;
-    int near_n = 0, far_n = 0;
-    for (std::size_t i : pixels) {
-      const double signed_error = double(p.depth.data[i]) - truth.data[i];
-      if (truth.data[i] < depth_median) near_sum += signed_error, ++near_n;
-      else far_sum += signed_error, ++far_n;
-    }
-    curvature[to_string(method)] = near_sum / near_n - far_sum / far_n;
+    curvature[to_string(method)] = near_minus_far_bias(p, truth, pixels);
     const double ratio = p.energy.empty() ? 0.0 : p.energy.back().data / p.energy.back().smoothness_weighted;
     std::cout << to_string(method) << " (lambda " << p.lambda << ", data/smoothness " << ratio << "): rmse "
               << err[to_string(method)] * 1e3 << " mm, median " << median(e) * 1e3 << " mm, near-minus-far bias "
@@ -284,17 +288,7 @@ TEST(PanoramaFusion, FlatWallsTsaAndTpBeatAveragingTvRadialCurves) {
     const Panorama p = fuse(m, options);
     std::vector<std::size_t> pixels;
     abs_errors(p, truth, &pixels, &mask);
-    std::vector<double> depths;
-    for (std::size_t i : pixels) depths.push_back(truth.data[i]);
-    const double depth_median = median(depths);
-    double near_sum = 0, far_sum = 0;
-    int near_n = 0, far_n = 0;
-    for (std::size_t i : pixels) {
-      const double signed_error = double(p.depth.data[i]) - truth.data[i];
-      if (truth.data[i] < depth_median) near_sum += signed_error, ++near_n;
-      else far_sum += signed_error, ++far_n;
-    }
-    strong[to_string(method)] = near_sum / near_n - far_sum / far_n;
+    strong[to_string(method)] = near_minus_far_bias(p, truth, pixels);
     std::cout << "strong " << to_string(method) << ": near-minus-far bias " << strong[to_string(method)] * 1e3 << " mm\n";
   }
   // Finding (not asserted): with the L1 data term the solution stays at the per-pixel medians
