@@ -24,6 +24,7 @@
 #include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/scene_loader.h"
 #include "panoscan/sim/simulator.h"
+#include "panoscan/tables/tables.h"
 
 namespace fs = std::filesystem;
 
@@ -318,6 +319,41 @@ void run_demo(const DemoArguments& a) {
                            "total {:.0f} s. Scans and clouds in {}/\n",
                            result.edges.size(), result.seconds_tracking, result.seconds_panorama,
                            result.seconds_registration, seconds, a.out);
+}
+
+void run_tables(const TablesArguments& a) {
+  if (a.names.size() == 1 && a.names[0] == "list") {
+    for (const auto& d : tables::table_drivers()) std::cout << fmt::format("{:8} {}\n", d.name, d.description);
+    return;
+  }
+  std::vector<std::string> names;
+  for (const auto& n : a.names) {
+    if (n == "all") {
+      for (const auto& d : tables::table_drivers()) names.push_back(d.name);
+    } else {
+      tables::table_driver(n);  // validates the name before any work
+      names.push_back(n);
+    }
+  }
+  tables::size_preset(a.size);
+  const std::vector<std::string> noises =
+      a.noise == "both" ? std::vector<std::string>{"handa", "kinect"} : std::vector<std::string>{a.noise};
+  if (a.seed < 0) throw make_error("--seed", "", "must not be negative");
+  for (const auto& noise : noises) {
+    tables::TablesOptions options;
+    options.size = a.size;
+    options.noise = noise;
+    options.out = fs::path(a.out) / noise;
+    options.cache = a.cache.empty() ? fs::path(a.out) / "scans" : fs::path(a.cache);
+    options.threads = a.threads;
+    options.seed = std::uint64_t(a.seed);
+    options.only = a.only;
+    for (const auto& name : names) {
+      const tables::TableRun run = tables::run_and_write(name, options);
+      for (const auto& t : run.tables) std::cout << eval::table_to_markdown(t) << "\n";
+      for (const auto& note : run.notes) std::cout << "- " << note << "\n";
+    }
+  }
 }
 
 }  // namespace panoscan::app

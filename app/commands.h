@@ -82,4 +82,17 @@ struct DemoArguments {
 // of align-only / average / MAP integration against the ground-truth mesh.
 void run_demo(const DemoArguments& arguments);
 
+struct TablesArguments {
+  std::vector<std::string> names;  // table names, "all" or "list"
+  std::string size = "quick";
+  std::string noise = "handa";      // a preset, or "both" (handa then kinect)
+  std::string out = "panoscan-tables";
+  std::string cache;
+  std::vector<std::string> only;
+  long long seed = 1;
+  int threads = 0;
+};
+// Runs the table drivers (benchmarks/tables) and writes <out>/<noise>/<name>/<name>.{md,csv,json}.
+void run_tables(const TablesArguments& arguments);
+
 }  // namespace panoscan::app

@@ -76,6 +76,19 @@ int main(int argc, char** argv) {
   demo_cmd->add_option("--out", demo_args.out, "output folder (replaced)")->capture_default_str();
   demo_cmd->add_option("--threads", demo_args.threads, "worker threads (0 = all cores)");
 
+  // tables
+  TablesArguments tables_args;
+  CLI::App* tables_cmd = app.add_subcommand(
+      "tables", "regenerate the paper's tables and figures (one command each; `tables list` names them)");
+  tables_cmd->add_option("names", tables_args.names, "table1 ... table6, fig8, all, or list")->required();
+  tables_cmd->add_option("--size", tables_args.size, "quick (CI size) or full (the record)")->capture_default_str();
+  tables_cmd->add_option("--noise", tables_args.noise, "handa (the paper's), kinect, or both")->capture_default_str();
+  tables_cmd->add_option("--out", tables_args.out, "results folder: <out>/<noise>/<table>/")->capture_default_str();
+  tables_cmd->add_option("--cache", tables_args.cache, "simulated scans, reused across runs (default <out>/scans)");
+  tables_cmd->add_option("--only", tables_args.only, "restrict to these scan or pair labels (repeatable)");
+  tables_cmd->add_option("--seed", tables_args.seed, "simulation seed")->capture_default_str();
+  tables_cmd->add_option("--threads", tables_args.threads, "worker threads (0 = all cores)");
+
   // eval cloud | traj
   CLI::App* eval_cmd = app.add_subcommand("eval", "evaluate against ground truth: clouds against meshes, trajectories");
   eval_cmd->require_subcommand(1);
@@ -163,6 +176,8 @@ int main(int argc, char** argv) {
       run_recon_panorama(pano_args);
     } else if (*recon_scene) {
       run_recon_scene(scene_args);
+    } else if (*tables_cmd) {
+      run_tables(tables_args);
     } else if (*demo_cmd) {
       run_demo(demo_args);
     }

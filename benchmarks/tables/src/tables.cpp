@@ -1,0 +1,218 @@
+// The table registry, the size presets, the scan cache and the report writer.
+#include "panoscan/tables/tables.h"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <ctime>
+#include <fstream>
+#include <thread>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "drivers.h"
+#include "panoscan/core/atomic_output.h"
+#include "panoscan/core/config.h"
+#include "panoscan/core/error.h"
+#include "panoscan/core/log.h"
+#include "panoscan/scenes/scenes.h"
+#include "panoscan/sim/simulator.h"
+
+namespace fs = std::filesystem;
+
+namespace panoscan::tables {
+
+SizePreset size_preset(const std::string& size) {
+  SizePreset p;
+  p.name = size;
+  if (size == "quick") {
+    // CI size: one scan of each scene, one pair.
+    p.width = 320;
+    p.height = 240;
+    p.every = 16;
+    p.panorama_height = 512;
+    p.tsdf_voxel_m = 0.01;
+    p.scans = {"SO-1", "SL-1"};
+    p.pairs = {"SO-13"};
+  } else if (size == "full") {
+    // The record: the paper's camera resolution and sparsity, every built-in scan and pair.
+    p.width = 640;
+    p.height = 480;
+    p.every = 16;
+    p.panorama_height = 1024;
+    p.tsdf_voxel_m = 0.005;
+    p.scans = {"SL-1", "SL-2", "SO-1", "SO-2", "SO-3", "SO-4"};
+    p.pairs = {"SL-12", "SO-13", "SO-14", "SO-23", "SO-24"};
+  } else {
+    throw make_error("--size", "", "unknown size '" + size + "' (known: quick, full)");
+  }
+  return p;
+}
+
+const eval::ResultTable& TableRun::table(const std::string& title_prefix) const {
+  for (const auto& t : tables)
+    if (t.title.rfind(title_prefix, 0) == 0) return t;
+  throw make_error(name, "table", "no table titled '" + title_prefix + "...'");
+}
+
+const std::vector<TableDriver>& table_drivers() {
+  static const std::vector<TableDriver> drivers = all_drivers();
+  return drivers;
+}
+
+const TableDriver& table_driver(const std::string& name) {
+  std::string known;
+  for (const auto& d : table_drivers()) {
+    if (d.name == name) return d;
+    known += (known.empty() ? "" : ", ") + d.name;
+  }
+  throw make_error("tables", "name", "unknown table '" + name + "' (known: " + known + ")");
+}
+
+std::pair<std::string, std::string> pair_scans(const std::string& label) {
+  // "SO-13" -> SO-1, SO-3: a scene prefix, a dash, two single-digit positions.
+  const auto dash = label.find('-');
+  if (dash == std::string::npos || label.size() != dash + 3)
+    throw make_error("pair", label, "expected a pair label like SO-13");
+  const std::string prefix = label.substr(0, dash + 1);
+  return {prefix + label[dash + 1], prefix + label[dash + 2]};
+}
+
+namespace {
+
+std::string scene_of_label(const std::string& label) {
+  if (label.rfind("SL-", 0) == 0) return "living_room";
+  if (label.rfind("SO-", 0) == 0) return "office";
+  throw make_error("scan", label, "unknown built-in scan label (expected SL-n or SO-n)");
+}
+
+// Holds an exclusive flock on a file for its lifetime, so that processes sharing a cache
+// (ctest -j) simulate each scan once.
+class FileLock {
+ public:
+  explicit FileLock(const fs::path& path) {
+    fd_ = ::open(path.c_str(), O_CREAT | O_RDWR, 0644);
+    if (fd_ < 0) throw make_error(path.string(), "", "cannot open the cache lock file");
+    if (::flock(fd_, LOCK_EX) != 0) {
+      ::close(fd_);
+      throw make_error(path.string(), "", "cannot lock the scan cache");
+    }
+  }
+  ~FileLock() {
+    ::flock(fd_, LOCK_UN);
+    ::close(fd_);
+  }
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+std::string utc_now() {
+  const std::time_t now = std::time(nullptr);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  return text;
+}
+
+std::string cpu_model() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("model name", 0) == 0) {
+      const auto colon = line.find(':');
+      if (colon != std::string::npos) return line.substr(colon + 2);
+    }
+  return "unknown";
+}
+
+}  // namespace
+
+fs::path cached_scan(const std::string& label, const TablesOptions& options) {
+  const SizePreset preset = size_preset(options.size);
+  const fs::path cache = options.cache.empty() ? options.out / "scans" : options.cache;
+  if (cache.empty()) throw make_error("tables", "cache", "no scan cache folder given");
+  fs::create_directories(cache);
+  // The key names everything that changes the scan.
+  const std::string key = fmt::format("{}_{}x{}_n{}_{}_seed{}", label, preset.width, preset.height, preset.every,
+                                      options.noise, options.seed);
+  const fs::path dir = cache / key;
+  FileLock lock(cache / (key + ".lock"));
+  if (fs::exists(dir / "rig.json")) return dir;
+  const Scene scene = scenes::make_builtin_scene(scene_of_label(label));
+  int position = -1;
+  for (std::size_t i = 0; i < scene.positions.size(); ++i)
+    if (scene.positions[i].name == label) position = int(i);
+  if (position < 0) throw make_error("scan", label, "no such position in the built-in " + scene.name);
+  // Through the config path, so that the noise name is validated like `panoscan sim --noise`.
+  Config config;
+  config.set("camera.width", std::to_string(preset.width));
+  config.set("camera.height", std::to_string(preset.height));
+  config.set("output.every", std::to_string(preset.every));
+  config.set("seed", std::to_string(options.seed));
+  config.set("noise.preset", options.noise);
+  if (options.threads > 0) config.set("threads", std::to_string(options.threads));
+  const SimOptions sim = sim_options_from_config(config);
+  config.check_all_used();
+  log_info(fmt::format("tables: simulating {} into {}", label, dir.string()));
+  Simulator(scene, position, sim).write_scan(dir, true);
+  return dir;
+}
+
+TableRun run_and_write(const std::string& name, const TablesOptions& options) {
+  const TableDriver& driver = table_driver(name);
+  if (options.out.empty()) throw make_error("tables", "--out", "an output folder is required");
+  const auto start = std::chrono::steady_clock::now();
+  TableRun run = driver.run(options);
+  run.name = name;
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  const fs::path dir = options.out / name;
+  fs::create_directories(dir);
+  std::string markdown;
+  for (const auto& t : run.tables) markdown += eval::table_to_markdown(t) + "\n";
+  if (!run.notes.empty()) {
+    markdown += "Notes:\n";
+    for (const auto& n : run.notes) markdown += "- " + n + "\n";
+  }
+  write_file_atomic(dir / (name + ".md"), markdown);
+  std::string csv;
+  for (const auto& t : run.tables) csv += "# " + t.title + " (" + t.unit + ")\n" + eval::table_to_csv(t);
+  write_file_atomic(dir / (name + ".csv"), csv);
+
+  const SizePreset preset = size_preset(options.size);
+  nlohmann::json j;
+  j["table"] = name;
+  j["description"] = driver.description;
+  j["version"] = eval::project_version();
+  j["date_utc"] = utc_now();
+  j["seconds"] = seconds;
+  j["machine"] = {{"cpu", cpu_model()}, {"hardware_threads", std::thread::hardware_concurrency()}};
+  j["settings"] = {{"size", preset.name}, {"width", preset.width}, {"height", preset.height},
+                   {"every", preset.every}, {"panorama_height", preset.panorama_height},
+                   {"tsdf_voxel_m", preset.tsdf_voxel_m}, {"noise", options.noise},
+                   {"seed", options.seed}, {"threads", options.threads}};
+  j["driver_settings"] = nlohmann::json::parse(run.settings_json);
+  for (const auto& t : run.tables) {
+    nlohmann::json table;
+    table["title"] = t.title;
+    table["unit"] = t.unit;
+    table["lower_is_better"] = t.lower_is_better;
+    for (std::size_t m = 0; m < t.methods.size(); ++m)
+      for (std::size_t s = 0; s < t.scans.size(); ++s) {
+        const double v = t.get(t.methods[m], t.scans[s]);
+        table["values"][t.methods[m]][t.scans[s]] = std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
+      }
+    j["tables"].push_back(table);
+  }
+  j["notes"] = run.notes;
+  write_file_atomic(dir / (name + ".json"), j.dump(2) + "\n");
+  log_info(fmt::format("tables: {} done in {:.0f} s, written to {}", name, seconds, dir.string()));
+  return run;
+}
+
+}  // namespace panoscan::tables
