@@ -1,5 +1,6 @@
-// The drivers, one function per paper table or figure, each in its own source file.
-// Add a driver: declare it here, list it in all_drivers() (drivers.cpp).
+// The drivers, one function per paper table or figure, each in its own source file
+// src/<name>.cpp returning its TableDriver. Add a driver: declare it here and list it in
+// all_drivers() (drivers.cpp), in the paper's order.
 #pragma once
 
 #include <vector>
@@ -9,5 +10,7 @@
 namespace panoscan::tables {
 
 std::vector<TableDriver> all_drivers();
+
+// Declarations of the drivers (e.g. `TableDriver table3_driver();`), in the paper's order:
 
 }  // namespace panoscan::tables
