@@ -12,5 +12,6 @@ namespace panoscan::tables {
 std::vector<TableDriver> all_drivers();
 
 // Declarations of the drivers (e.g. `TableDriver table3_driver();`), in the paper's order:
+TableDriver table6_driver();
 
 }  // namespace panoscan::tables
