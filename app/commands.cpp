@@ -339,6 +339,7 @@ void run_tables(const TablesArguments& a) {
   const std::vector<std::string> noises =
       a.noise == "both" ? std::vector<std::string>{"handa", "kinect"} : std::vector<std::string>{a.noise};
   if (a.seed < 0) throw make_error("--seed", "", "must not be negative");
+  std::vector<tables::TablesOptions> runs;
   for (const auto& noise : noises) {
     tables::TablesOptions options;
     options.size = a.size;
@@ -348,12 +349,15 @@ void run_tables(const TablesArguments& a) {
     options.threads = a.threads;
     options.seed = std::uint64_t(a.seed);
     options.only = a.only;
+    tables::check_tables_options(options);  // every run is checked before the first starts
+    runs.push_back(options);
+  }
+  for (const auto& options : runs)
     for (const auto& name : names) {
       const tables::TableRun run = tables::run_and_write(name, options);
       for (const auto& t : run.tables) std::cout << eval::table_to_markdown(t) << "\n";
       for (const auto& note : run.notes) std::cout << "- " << note << "\n";
     }
-  }
 }
 
 }  // namespace panoscan::app

@@ -110,3 +110,17 @@ TEST(Cli, SimWritesAScanAndRefusesToOverwriteIt) {
       run("sim --scene living_room --position SL-2 --resolution 32x24 --every 300 --overwrite --out " + out);
   EXPECT_EQ(third.exit_code, 0) << third.output;
 }
+
+TEST(Cli, TablesListsItsDriversAndRejectsBadNamesSizesAndNoise) {
+  const RunResult list = run("tables list");
+  EXPECT_EQ(list.exit_code, 0) << list.output;
+  EXPECT_NE(list.output.find("table6"), std::string::npos) << list.output;
+
+  panoscan::testutil::TempDir tmp("cli-tables");
+  const std::string out = " --out " + (tmp / "out").string() + " --cache " + (tmp / "cache").string();
+  expect_failure_naming(run("tables table99" + out), {"table99", "table6"});
+  expect_failure_naming(run("tables table6 --size huge" + out), {"--size", "huge"});
+  // The noise name is checked before anything is simulated or written.
+  expect_failure_naming(run("tables table6 --noise loud" + out), {"noise.preset", "loud"});
+  EXPECT_FALSE(fs::exists(tmp / "out" / "loud" / "table6" / "table6.md"));
+}

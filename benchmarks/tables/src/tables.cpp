@@ -52,6 +52,15 @@ SizePreset size_preset(const std::string& size) {
   return p;
 }
 
+void check_tables_options(const TablesOptions& options) {
+  size_preset(options.size);
+  // The sim's own validation names the key (noise.preset) and the known presets.
+  Config config;
+  config.set("noise.preset", options.noise);
+  sim_options_from_config(config);
+  if (options.threads < 0) throw make_error("--threads", "", "must not be negative");
+}
+
 const eval::ResultTable& TableRun::table(const std::string& title_prefix) const {
   for (const auto& t : tables)
     if (t.title.rfind(title_prefix, 0) == 0) return t;
@@ -165,6 +174,7 @@ fs::path cached_scan(const std::string& label, const TablesOptions& options) {
 
 TableRun run_and_write(const std::string& name, const TablesOptions& options) {
   const TableDriver& driver = table_driver(name);
+  check_tables_options(options);
   if (options.out.empty()) throw make_error("tables", "--out", "an output folder is required");
   const auto start = std::chrono::steady_clock::now();
   TableRun run = driver.run(options);

@@ -41,6 +41,10 @@ struct SizePreset {
 };
 SizePreset size_preset(const std::string& size);  // throws Error on an unknown size
 
+// Throws Error naming the field for an unknown size or noise preset or negative threads; called
+// before any work so that a typo fails at once.
+void check_tables_options(const TablesOptions& options);
+
 // One driver's result: its tables plus free-text notes (e.g. which paper ordering fails).
 struct TableRun {
   std::string name;                       // e.g. "table3"
