@@ -1,0 +1,175 @@
+#!/usr/bin/env python3
+"""The speed report (issue "tables", item 4): every stage's Google Benchmark in one run, the outside
+references measured in the same run, reported as ratios, plus how each stage's time grows with its input.
+
+  /usr/bin/python3 scripts/speed_report.py [--build build] [--out benchmarks/results/speed] [--only NAME...]
+                                           [--filter REGEX]
+
+Runs build/benchmarks/<name> --benchmark_format=json for each benchmark program that exists
+(render, eval, tracking, panorama, registration), keeps the raw JSON (<out>/<name>.json) and writes
+<out>/speed.md:
+  - ratios against the reference measured in the same run: the full render against bare Embree
+    (single rays and 8-ray packets), our registration methods against PCL's and Open3D's GICP on the
+    same clouds, panorama fusion (warping + optimisation) against the TSDF baseline;
+  - growth: each benchmark family with several arguments (frames, resolution, panorama size, points)
+    as a table of real time against its arguments;
+  - every benchmark's real time and counters.
+A reference that did not run is reported as "not measured", never guessed. The machine (CPU model,
+cores) and the date are in the report: speed figures only compare within one run.
+"""
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import subprocess
+import sys
+
+PROGRAMS = ["render_benchmark", "eval_benchmark", "tracking_benchmark", "panorama_benchmark",
+            "registration_benchmark"]
+
+
+def cpu_model():
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def run_program(path, out_json, benchmark_filter):
+    tmp = out_json + ".tmp"
+    command = [path, "--benchmark_format=json", "--benchmark_out=" + tmp, "--benchmark_out_format=json"]
+    if benchmark_filter:
+        command.append("--benchmark_filter=" + benchmark_filter)
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+    os.replace(tmp, out_json)  # atomic: a killed run leaves the previous report
+    with open(out_json) as f:
+        return json.load(f)
+
+
+def seconds(b):
+    """Real time of one iteration in seconds, whatever the benchmark's display unit."""
+    scale = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}[b.get("time_unit", "ns")]
+    return b["real_time"] * scale
+
+
+def find(benchmarks, prefix):
+    """Benchmarks whose name starts with prefix (aggregates excluded)."""
+    return [b for b in benchmarks if b["name"].startswith(prefix) and b.get("run_type", "iteration") == "iteration"]
+
+
+def ratio_line(label, numerator, denominator, unit_note):
+    if numerator is None or denominator is None or denominator == 0:
+        return f"| {label} | not measured | |"
+    return f"| {label} | {numerator / denominator:.2f} | {unit_note} |"
+
+
+def first_counter(benchmarks, prefix, counter):
+    for b in find(benchmarks, prefix):
+        if counter in b:
+            return b[counter]
+    return None
+
+
+def first_seconds(benchmarks, prefix):
+    found = find(benchmarks, prefix)
+    return seconds(found[0]) if found else None
+
+
+def ratios(results):
+    lines = ["| ratio | value | meaning |", "|---|---:|---|"]
+    render = results.get("render_benchmark", [])
+    full = first_counter(render, "BM_RaysFullRender", "rays_per_s")
+    lines.append(ratio_line("full render / bare Embree (single rays)", full,
+                            first_counter(render, "BM_RaysBareEmbree/", "rays_per_s")
+                            or first_counter(render, "BM_RaysBareEmbree", "rays_per_s"),
+                            "rays/s; SPEC aim >= 0.6"))
+    lines.append(ratio_line("full render / bare Embree (8-ray packets)", full,
+                            first_counter(render, "BM_RaysBareEmbreePackets", "rays_per_s"), "rays/s"))
+    reg = results.get("registration_benchmark", [])
+    ours = None
+    for b in find(reg, "BM_Register/"):
+        if "gicp-ours" in b.get("label", "") or b["name"].endswith("/6"):
+            ours = seconds(b)
+    lines.append(ratio_line("PCL GICP time / GICP (Ours) time", first_seconds(reg, "BM_RegisterPclGicp"), ours,
+                            "speed-up on the same clouds; issue aim >= 10"))
+    lines.append(ratio_line("Open3D GICP time / GICP (Ours) time", first_seconds(reg, "BM_RegisterOpen3dGicp"), ours,
+                            "speed-up on the same clouds"))
+    pano = results.get("panorama_benchmark", [])
+    warp, fuse, tsdf = first_seconds(pano, "BM_PanoramaWarp"), first_seconds(pano, "BM_PanoramaFuse"), \
+        first_seconds(pano, "BM_TsdfBaseline")
+    lines.append(ratio_line("panorama (warp + optimise) time / TSDF time",
+                            None if warp is None or fuse is None else warp + fuse, tsdf, "same frames, same run"))
+    pano_mem = first_counter(pano, "BM_PanoramaFuse", "peak_rss_MiB")
+    tsdf_mem = first_counter(pano, "BM_TsdfBaseline", "volume_MiB_estimate")
+    lines.append(ratio_line("panorama peak RSS / TSDF volume estimate", pano_mem, tsdf_mem, "memory; aim < 1"))
+    return lines
+
+
+def growth(results):
+    lines = []
+    for program, benchmarks in results.items():
+        families = {}
+        for b in find(benchmarks, "BM_"):
+            name = b["name"]
+            if "/" not in name:
+                continue
+            family, args = name.split("/", 1)
+            families.setdefault(family, []).append((args, seconds(b), b))
+        for family, rows in families.items():
+            if len(rows) < 2:
+                continue
+            lines.append(f"\n**{program} {family}** (arguments as in the benchmark's source)\n")
+            lines.append("| arguments | real time (s) | counters |")
+            lines.append("|---|---:|---|")
+            for args, s, b in rows:
+                counters = ", ".join(f"{k}={v:.4g}" for k, v in b.items()
+                                     if isinstance(v, (int, float)) and k not in
+                                     ("real_time", "cpu_time", "iterations", "repetitions", "repetition_index",
+                                      "threads", "family_index", "per_family_instance_index"))
+                lines.append(f"| {args} | {s:.4g} | {counters} |")
+    return lines
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--build", default="build")
+    parser.add_argument("--out", default="benchmarks/results/speed")
+    parser.add_argument("--only", nargs="*", help="benchmark programs to run (default: all that exist)")
+    parser.add_argument("--filter", default="", help="passed to every program as --benchmark_filter (a regex)")
+    args = parser.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    results, missing = {}, []
+    for program in args.only or PROGRAMS:
+        path = os.path.join(args.build, "benchmarks", program)
+        if not os.path.exists(path):
+            missing.append(program)
+            continue
+        print(f"running {program} ...", file=sys.stderr)
+        results[program] = run_program(path, os.path.join(args.out, program + ".json"), args.filter)["benchmarks"]
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    md = [f"# Speed report, {now}", "",
+          f"Machine: {cpu_model()}, {os.cpu_count()} hardware threads. "
+          f"Command: `/usr/bin/python3 scripts/speed_report.py --build {args.build} --out {args.out}`.", "",
+          "## Ratios against references measured in the same run", ""] + ratios(results)
+    md += ["", "## Growth with the input"] + growth(results)
+    md += ["", "## Every benchmark", "", "| program | benchmark | real time (s) |", "|---|---|---:|"]
+    for program, benchmarks in results.items():
+        for b in find(benchmarks, "BM_"):
+            md.append(f"| {program} | {b['name']} | {seconds(b):.4g} |")
+    if missing:
+        md += ["", "Not built: " + ", ".join(missing)]
+    tmp = os.path.join(args.out, "speed.md.tmp")
+    with open(tmp, "w") as f:
+        f.write("\n".join(md) + "\n")
+    os.replace(tmp, os.path.join(args.out, "speed.md"))
+    print(os.path.join(args.out, "speed.md"))
+
+
+if __name__ == "__main__":
+    main()
