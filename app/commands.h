@@ -74,6 +74,30 @@ struct ReconSceneArguments {
 };
 void run_recon_scene(const ReconSceneArguments& arguments);
 
+// recon register / recon integrate (commands_stage2.cpp): stage 2 on panorama folders written by
+// `recon panorama` (or `recon scene`).
+struct ReconRegisterArguments {
+  std::string source, target;  // panorama folders
+  std::string method;          // registration.method (default gicp-ours)
+  std::string initial;         // optional: a pose JSON, or a previous `recon register` output
+  std::string out, config_file;
+  std::vector<std::string> overrides;
+  int threads = -1;
+  bool overwrite = false;
+};
+void run_recon_register(const ReconRegisterArguments& arguments);
+
+struct ReconIntegrateArguments {
+  std::vector<std::string> panoramas;  // panorama folders; the first one fixes the frame
+  std::vector<std::string> poses;      // `recon register` outputs linking them, or "stored"
+  std::string method;                  // integration.method: map (default), average, align
+  std::string out, config_file;        // out: cloud.ply
+  std::vector<std::string> overrides;
+  int threads = -1;
+  bool overwrite = false;
+};
+void run_recon_integrate(const ReconIntegrateArguments& arguments);
+
 struct DemoArguments {
   std::string out = "panoscan-demo";
   int threads = -1;

@@ -114,7 +114,7 @@ int main(int argc, char** argv) {
   eval_traj->add_option("--set", traj_args.overrides, "override a config key (repeatable)");
 
   // recon track
-  CLI::App* recon_cmd = app.add_subcommand("recon", "reconstruction: track, panorama, scene");
+  CLI::App* recon_cmd = app.add_subcommand("recon", "reconstruction: track, panorama, register, integrate, scene");
   recon_cmd->require_subcommand(1);
   ReconTrackArguments track_args;
   CLI::App* recon_track = recon_cmd->add_subcommand("track", "joint tracking of the unsynchronized cameras (paper 4.1)");
@@ -151,6 +151,34 @@ int main(int argc, char** argv) {
                         "simulated scans: write the cloud in the scene frame (for eval)");
   recon_scene->add_flag("--overwrite", scene_args.overwrite, "replace existing outputs");
 
+  ReconRegisterArguments register_args;
+  CLI::App* recon_register = recon_cmd->add_subcommand(
+      "register", "register two panoramas: ORB + RANSAC guess, then GICP with the measured variance (paper 5.1)");
+  recon_register->add_option("--source", register_args.source, "panorama folder to move (from recon panorama)")->required();
+  recon_register->add_option("--target", register_args.target, "panorama folder it is registered to")->required();
+  recon_register->add_option("--method", register_args.method,
+                             "gicp-ours (default), gicp-def, gicp, anisotropic, p2plane-curv, p2plane, p2point");
+  recon_register->add_option("--initial", register_args.initial, "initial target_from_source (pose JSON) instead of ORB");
+  recon_register->add_option("--out", register_args.out, "output JSON: target_from_source and diagnostics")->required();
+  recon_register->add_option("--config", register_args.config_file, "YAML/JSON config (keys registration.*)");
+  recon_register->add_option("--set", register_args.overrides, "override a config key (repeatable)");
+  recon_register->add_option("--threads", register_args.threads, "worker threads (0 = all cores)");
+  recon_register->add_flag("--overwrite", register_args.overwrite, "replace an existing output");
+
+  ReconIntegrateArguments integrate_args;
+  CLI::App* recon_integrate = recon_cmd->add_subcommand(
+      "integrate", "merge registered panoramas into one cloud: align, average or MAP (paper 5.2)");
+  recon_integrate->add_option("--panoramas", integrate_args.panoramas, "panorama folders; the first fixes the frame")
+      ->required();
+  recon_integrate->add_option("--poses", integrate_args.poses,
+                              "recon register outputs linking them (pose graph if redundant), or 'stored'");
+  recon_integrate->add_option("--method", integrate_args.method, "map (default), average, align");
+  recon_integrate->add_option("--out", integrate_args.out, "output cloud (PLY with colour and variance)")->required();
+  recon_integrate->add_option("--config", integrate_args.config_file, "YAML/JSON config (keys integration.*, registration.*)");
+  recon_integrate->add_option("--set", integrate_args.overrides, "override a config key (repeatable)");
+  recon_integrate->add_option("--threads", integrate_args.threads, "worker threads (0 = all cores)");
+  recon_integrate->add_flag("--overwrite", integrate_args.overwrite, "replace an existing output");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -176,6 +204,10 @@ int main(int argc, char** argv) {
       run_recon_panorama(pano_args);
     } else if (*recon_scene) {
       run_recon_scene(scene_args);
+    } else if (*recon_register) {
+      run_recon_register(register_args);
+    } else if (*recon_integrate) {
+      run_recon_integrate(integrate_args);
     } else if (*tables_cmd) {
       run_tables(tables_args);
     } else if (*demo_cmd) {

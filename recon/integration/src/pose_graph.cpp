@@ -1,5 +1,7 @@
 #include "panoscan/recon/pose_graph.h"
 
+#include <algorithm>
+
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 
@@ -49,6 +51,32 @@ struct RelativePoseError {
 };
 
 }  // namespace
+
+std::vector<EdgeDiscrepancy> edge_discrepancies(const std::vector<Rigid3d>& world_from_node,
+                                                const std::vector<PoseGraphEdge>& edges) {
+  std::vector<EdgeDiscrepancy> out;
+  const int n = int(world_from_node.size());
+  for (const PoseGraphEdge& e : edges) {
+    if (e.from < 0 || e.from >= n || e.to < 0 || e.to >= n)
+      throw make_error("", "pose graph edge", std::to_string(e.from) + " -> " + std::to_string(e.to) + " is invalid");
+    const Rigid3d relative = world_from_node[e.to].inverse() * world_from_node[e.from];
+    EdgeDiscrepancy d;
+    d.rotation_deg = rad2deg(rotation_angle(e.to_from_from.linear().transpose() * relative.linear()));
+    d.translation_m = (relative.translation() - e.to_from_from.translation()).norm();
+    out.push_back(d);
+  }
+  return out;
+}
+
+EdgeDiscrepancy worst_edge_discrepancy(const std::vector<Rigid3d>& world_from_node,
+                                       const std::vector<PoseGraphEdge>& edges) {
+  EdgeDiscrepancy worst;
+  for (const EdgeDiscrepancy& d : edge_discrepancies(world_from_node, edges)) {
+    worst.rotation_deg = std::max(worst.rotation_deg, d.rotation_deg);
+    worst.translation_m = std::max(worst.translation_m, d.translation_m);
+  }
+  return worst;
+}
 
 PoseGraphResult optimize_pose_graph(const std::vector<Rigid3d>& initial, const std::vector<PoseGraphEdge>& edges,
                                     const PoseGraphOptions& options) {

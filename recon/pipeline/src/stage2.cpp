@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "panoscan/core/error.h"
+#include "panoscan/core/config.h"
 #include "panoscan/recon/point_covariance.h"
 
 namespace panoscan {
@@ -13,7 +14,30 @@ namespace {
 // Handa et al.'s depth std (SPEC §11): sigma_Z = Z^2 / 351.3 / 3 (radial ~ z for the centre rays).
 double handa_model_sigma(double depth_m) { return depth_m * depth_m / 351.3 / 3.0; }
 
+// The median measured sigma_z of the pixels that pass the filters (kConstant's default value).
+double median_usable_sigma(const Panorama& panorama, const PanoramaCloudOptions& options) {
+  std::vector<float> sigmas;
+  const std::size_t n = panorama.depth.data.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!(panorama.depth.data[i] > 0) || panorama.count.data[i] < options.min_observations) continue;
+    const float sigma = std::sqrt(std::max(0.f, panorama.variance.data[i]));
+    if (sigma <= options.max_sigma_m) sigmas.push_back(sigma);
+  }
+  if (sigmas.empty()) return 0.0;
+  std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
+  return sigmas[sigmas.size() / 2];
+}
+
 }  // namespace
+
+const char* to_string(DepthCovarianceModel model) {
+  switch (model) {
+    case DepthCovarianceModel::kMeasured: return "measured";
+    case DepthCovarianceModel::kHandaModel: return "handa-model";
+    case DepthCovarianceModel::kConstant: return "constant";
+  }
+  return "?";
+}
 
 RegistrationCloud panorama_registration_cloud(const Panorama& panorama, const PanoramaCloudOptions& options,
                                               std::vector<std::size_t>* pixels) {
@@ -21,6 +45,9 @@ RegistrationCloud panorama_registration_cloud(const Panorama& panorama, const Pa
   const int width = pano.width(), height = pano.height;
   const int stride = std::max(1, options.pixel_stride);
   const double sigma_angle = 0.5 * M_PI / height;
+  const double constant_sigma = options.covariance != DepthCovarianceModel::kConstant ? 0.0
+                                : options.constant_sigma_m > 0                       ? options.constant_sigma_m
+                                                                                     : median_usable_sigma(panorama, options);
   RegistrationCloud cloud;
   if (pixels) pixels->clear();
   for (int v = 0; v < height; v += stride)
@@ -32,7 +59,8 @@ RegistrationCloud panorama_registration_cloud(const Panorama& panorama, const Pa
       if (count < options.min_observations || sigma_measured > options.max_sigma_m) continue;
       const double sigma = options.covariance == DepthCovarianceModel::kMeasured
                                ? std::max(sigma_measured, 1e-4)  // a pixel is never exact
-                               : handa_model_sigma(depth);
+                           : options.covariance == DepthCovarianceModel::kHandaModel ? handa_model_sigma(depth)
+                                                                                    : std::max(constant_sigma, 1e-4);
       cloud.points.push_back(pano.direction(u, v) * depth);
       cloud.measurement_covariances.push_back(equirectangular_point_covariance(
           2 * M_PI * (u + 0.5) / width, M_PI * (v + 0.5) / height, depth, sigma_angle, sigma));
@@ -47,10 +75,8 @@ RegistrationCloud panorama_registration_cloud(const Panorama& panorama, const Pa
   return cloud;
 }
 
-PairRegistration register_panorama_pair(const Panorama& source, const Panorama& target,
-                                        const PairRegistrationOptions& options, const Rigid3d* given_initial,
-                                        const std::string& source_name, const std::string& target_name) {
-  const std::string pair = source_name + " -> " + target_name;
+FeatureAlignment panorama_feature_guess(const Panorama& source, const Panorama& target,
+                                        const FeatureAlignmentOptions& options) {
   auto to_u8 = [](const ImageF32& colour) {
     ImageU8 out(colour.width, colour.height, 3);
     for (std::size_t i = 0; i < colour.data.size(); ++i)
@@ -58,8 +84,30 @@ PairRegistration register_panorama_pair(const Panorama& source, const Panorama& 
     return out;
   };
   const ImageU8 source_rgb = to_u8(source.colour), target_rgb = to_u8(target.colour);
+  return align_panorama_features({&source_rgb, &source.depth}, {&target_rgb, &target.depth}, options);
+}
+
+PairRegistration register_panorama_pair(const Panorama& source, const Panorama& target,
+                                        const PairRegistrationOptions& options, const Rigid3d* given_initial,
+                                        const std::string& source_name, const std::string& target_name) {
+  const std::string pair = source_name + " -> " + target_name;
+  if (source.pano.height != target.pano.height)
+    throw make_error(pair, "size",
+                     "the panoramas differ in size (" + std::to_string(source.pano.width()) + "x" +
+                         std::to_string(source.pano.height) + " and " + std::to_string(target.pano.width()) + "x" +
+                         std::to_string(target.pano.height) + "); build both with the same height H");
+  // Usable pixels first: a panorama without any is reported as such, not as a feature failure.
+  auto cloud_of = [&](const Panorama& panorama, const std::string& name) {
+    try {
+      return panorama_registration_cloud(panorama, options.cloud);
+    } catch (const Error& e) {
+      throw make_error(name, "", e.what());
+    }
+  };
+  const RegistrationCloud source_cloud = cloud_of(source, source_name);
+  const RegistrationCloud target_cloud = cloud_of(target, target_name);
   PairRegistration result;
-  result.guess = align_panorama_features({&source_rgb, &source.depth}, {&target_rgb, &target.depth}, options.features);
+  result.guess = panorama_feature_guess(source, target, options.features);
   Rigid3d initial;
   if (given_initial) {
     initial = *given_initial;
@@ -69,8 +117,6 @@ PairRegistration register_panorama_pair(const Panorama& source, const Panorama& 
     throw make_error(pair, "initial guess", "ORB feature alignment failed (" + result.guess.failure +
                                                 "); give an initial pose");
   }
-  const RegistrationCloud source_cloud = panorama_registration_cloud(source, options.cloud);
-  const RegistrationCloud target_cloud = panorama_registration_cloud(target, options.cloud);
   try {
     result.icp = register_icp(source_cloud, target_cloud, initial, options.icp);
   } catch (const Error& e) {
@@ -107,6 +153,45 @@ PanoramaPoints panorama_integration_points(const Panorama& panorama, const Rigid
       points.colours[i][c] = static_cast<std::uint8_t>(std::clamp(panorama.colour.at(u, v, c) * 255.f + 0.5f, 0.f, 255.f));
   }
   return points;
+}
+
+PairRegistrationOptions pair_registration_options_from_config(Config& config) {
+  PairRegistrationOptions options;
+  IcpOptions& icp = options.icp;
+  icp.method = icp_method_from_string(config.get_string(
+      "registration.method", to_string(icp.method),
+      {"p2point", "p2plane", "p2plane-curv", "gicp", "anisotropic", "gicp-def", "gicp-ours"}));
+  icp.max_correspondence_m = config.get_double("registration.max_correspondence_m", icp.max_correspondence_m, 1e-3, 10.0);
+  icp.max_iterations = config.get_int("registration.max_iterations", icp.max_iterations, 1, 1000);
+  icp.min_fitness = config.get_double("registration.min_fitness", icp.min_fitness, 0.0, 1.0);
+  icp.threads = config.get_int("threads", 0, 0, 1024);
+  PanoramaCloudOptions& cloud = options.cloud;
+  // "Def." (Table 4) means the general noise model in place of the measured variance.
+  const std::string covariance = config.get_string(
+      "registration.covariance", icp.method == IcpMethod::kGicpNoiseModel ? "handa-model" : "measured",
+      {"measured", "handa-model", "constant"});
+  cloud.covariance = covariance == "measured"      ? DepthCovarianceModel::kMeasured
+                     : covariance == "handa-model" ? DepthCovarianceModel::kHandaModel
+                                                   : DepthCovarianceModel::kConstant;
+  cloud.constant_sigma_m = config.get_double("registration.constant_sigma_m", cloud.constant_sigma_m, 0.0, 1.0);
+  cloud.pixel_stride = config.get_int("registration.pixel_stride", cloud.pixel_stride, 1, 64);
+  cloud.min_observations = config.get_int("registration.min_observations", cloud.min_observations, 1, 1000);
+  cloud.max_sigma_m = config.get_double("registration.max_sigma_m", cloud.max_sigma_m, 1e-4, 10.0);
+  cloud.surface.threads = icp.threads;
+  options.features.seed = config.get_u64("seed", 1);
+  return options;
+}
+
+IntegrationOptions integration_options_from_config(Config& config) {
+  IntegrationOptions options;
+  options.method = merge_method_from_string(
+      config.get_string("integration.method", to_string(options.method), {"map", "average", "align"}));
+  options.weighting =
+      config.get_string("integration.weighting", "information", {"information", "paper-inverse-sqrt"}) == "information"
+          ? MapWeighting::kInformation
+          : MapWeighting::kPaperInverseSqrt;
+  options.threads = config.get_int("threads", 0, 0, 1024);
+  return options;
 }
 
 }  // namespace panoscan

@@ -33,6 +33,20 @@ struct PoseGraphResult {
   bool converged = false;
 };
 
+// How far an edge's measurement is from the relative pose of its two nodes: the angle of
+// R_meas^-1 R_rel and |t_rel - t_meas| (the `to` frame). The worst over a graph's edges is its
+// "pairwise inconsistency": chained poses put all of a loop's disagreement on the edges outside
+// the chain; the pose graph spreads it.
+struct EdgeDiscrepancy {
+  double rotation_deg = 0.0;
+  double translation_m = 0.0;
+};
+std::vector<EdgeDiscrepancy> edge_discrepancies(const std::vector<Rigid3d>& world_from_node,
+                                                const std::vector<PoseGraphEdge>& edges);
+// The largest rotation and the largest translation discrepancy (each over all edges).
+EdgeDiscrepancy worst_edge_discrepancy(const std::vector<Rigid3d>& world_from_node,
+                                       const std::vector<PoseGraphEdge>& edges);
+
 // Throws Error if an edge names a missing node, the graph is not connected to the fixed node,
 // or the initial poses are not finite.
 PoseGraphResult optimize_pose_graph(const std::vector<Rigid3d>& initial_world_from_node,

@@ -45,18 +45,26 @@ struct SceneResult {
   std::vector<PairEdge> edges;
   std::vector<std::string> skipped_pairs;  // "SO-1 -> SO-4: <reason>"
   bool pose_graph_used = false;
+  // The worst pairwise inconsistency (pose_graph.h) of the chained poses and of the final ones.
+  EdgeDiscrepancy inconsistency_chained, inconsistency_final;
   IntegrationResult integration;
   double seconds_tracking = 0, seconds_panorama = 0, seconds_registration = 0, seconds_integration = 0;
 };
+
+// Stage 2's poses for built panoramas: pairwise registrations (consecutive ones must succeed, the
+// other pairs are used when they do and options.register_all_pairs), poses chained from the first
+// panorama (which stays at its world_from_pano), then the pose graph when the registrations are
+// redundant. Fills edges, skipped_pairs, world_from_panorama, pose_graph_used, the inconsistencies
+// and seconds_registration of `result`. Throws Error naming a consecutive pair that fails.
+void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std::vector<std::string>& names,
+                              const SceneOptions& options, SceneResult& result);
 
 // Throws Error when a consecutive pair does not register (naming the pair) or a stage fails.
 SceneResult reconstruct_scene(const std::vector<SceneScan>& scans, const SceneOptions& options);
 
 // Keys: those of tracking_options_from_config (track.*, frontend.*), panorama_options_from_config
-// (panorama.*), and registration.{method (gicp-ours), max_correspondence_m (0.15), max_iterations (50),
-// covariance (measured | handa-model), pixel_stride (1), min_observations (2), max_sigma_m (0.15),
-// all_pairs (true)}, integration.{method (map | average | align), weighting (information |
-// paper-inverse-sqrt)}, seed, threads.
+// (panorama.*), pair_registration_options_from_config and integration_options_from_config
+// (registration.*, integration.*, seed, threads; see stage2.h), and registration.all_pairs (true).
 SceneOptions scene_options_from_config(Config& config);
 
 }  // namespace panoscan

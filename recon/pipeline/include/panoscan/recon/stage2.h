@@ -4,12 +4,15 @@
 // A panorama pixel becomes a point P^A = D * direction(pixel) (panorama frame) with the measurement
 // covariance of Eq. 9, J diag(sigma_phi^2, sigma_theta^2, sigma_z^2) J^T, sigma_phi = sigma_theta =
 // 0.5 pi / H, where sigma_z is the pixel's measured std ("measured", the paper's) or the Handa
-// model's at that depth ("handa-model", Table 4's "Def."). Pixels with sigma_z > 0.15 m are dropped
-// first (§6.3), and so are pixels seen fewer than min_observations times.
+// model's at that depth ("handa-model", Table 4's "Def."), or one value for every pixel ("constant",
+// an ablation: the measured variance without its per-pixel information). Pixels with sigma_z > 0.15 m
+// are dropped first (§6.3), and so are pixels seen fewer than min_observations times.
 #pragma once
 
 #include <string>
 #include <vector>
+
+#include "panoscan/core/config.h"
 
 #include "panoscan/recon/feature_alignment.h"
 #include "panoscan/recon/integration.h"
@@ -19,13 +22,18 @@
 
 namespace panoscan {
 
-enum class DepthCovarianceModel { kMeasured, kHandaModel };
+enum class DepthCovarianceModel { kMeasured, kHandaModel, kConstant };
+
+const char* to_string(DepthCovarianceModel model);  // measured, handa-model, constant
 
 struct PanoramaCloudOptions {
   DepthCovarianceModel covariance = DepthCovarianceModel::kMeasured;
   double max_sigma_m = 0.15;   // drop pixels whose measured sigma_z exceeds this (§6.3)
   int min_observations = 2;    // a variance needs at least two measurements
   int pixel_stride = 1;        // use every n-th row and column (speed; 1 = all pixels)
+  // kConstant: every pixel's sigma_z; 0 = the median measured sigma_z of the usable pixels (the same
+  // overall scale as the measured variance, no per-pixel information).
+  double constant_sigma_m = 0.0;
   SurfaceOptions surface;
 };
 
@@ -44,6 +52,10 @@ struct PairRegistrationOptions {
   double consistency_threshold_m = 0.05;
 };
 
+// The ORB + RANSAC guess between the two colour panoramas (§5.1), as register_panorama_pair makes it.
+FeatureAlignment panorama_feature_guess(const Panorama& source, const Panorama& target,
+                                        const FeatureAlignmentOptions& options);
+
 struct PairRegistration {
   Rigid3d target_from_source = Rigid3d::Identity();
   FeatureAlignment guess;  // the ORB guess (also when an initial pose was given: used to verify)
@@ -53,8 +65,10 @@ struct PairRegistration {
 
 // Registers `source` onto `target`: the initial pose is `given_initial` if not null, else the ORB
 // guess; then ICP with options.icp; then the result is checked against the feature matches.
-// Throws Error (naming the two panoramas by `source_name` / `target_name`) when the ORB guess
-// fails and no initial pose is given, or when the final pose contradicts the features.
+// Throws Error (naming the two panoramas by `source_name` / `target_name`) when the panoramas
+// differ in size, when one has too few usable pixels, when the ORB guess fails and no initial pose
+// is given, when the panoramas do not overlap at the pose (fewer than options.icp.min_fitness of
+// the source points close to the target), or when the final pose contradicts the features.
 PairRegistration register_panorama_pair(const Panorama& source, const Panorama& target,
                                         const PairRegistrationOptions& options, const Rigid3d* given_initial,
                                         const std::string& source_name, const std::string& target_name);
@@ -63,5 +77,13 @@ PairRegistration register_panorama_pair(const Panorama& source, const Panorama& 
 // covariance (surface + measurement) and colours.
 PanoramaPoints panorama_integration_points(const Panorama& panorama, const Rigid3d& world_from_panorama,
                                            const PanoramaCloudOptions& options);
+
+// Keys registration.{method (gicp-ours), max_correspondence_m (0.15), max_iterations (50),
+// min_fitness (0.2), covariance (measured | handa-model | constant; handa-model for gicp-def),
+// constant_sigma_m (0 = median measured), pixel_stride (1), min_observations (2), max_sigma_m (0.15)},
+// seed (RANSAC), threads.
+PairRegistrationOptions pair_registration_options_from_config(Config& config);
+// Keys integration.{method (map | average | align), weighting (information | paper-inverse-sqrt)}, threads.
+IntegrationOptions integration_options_from_config(Config& config);
 
 }  // namespace panoscan

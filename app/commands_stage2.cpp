@@ -1,0 +1,219 @@
+// `panoscan recon register` and `panoscan recon integrate`: stage 2 of the method (paper §5) on
+// panorama folders written by `recon panorama` or `recon scene`. No algorithm lives here: reading,
+// calling recon/pipeline's stage2.h and recon/integration, reporting.
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <optional>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "panoscan/core/atomic_output.h"
+#include "panoscan/core/config.h"
+#include "panoscan/core/error.h"
+#include "panoscan/core/log.h"
+#include "panoscan/core/pose_json.h"
+#include "panoscan/recon/panorama.h"
+#include "panoscan/recon/stage2.h"
+
+namespace fs = std::filesystem;
+
+namespace panoscan::app {
+
+namespace {
+
+Config load_stage2_config(const std::string& file, const std::vector<std::string>& overrides, int threads) {
+  Config config = file.empty() ? Config() : Config::load_file(file);
+  for (const auto& o : overrides) config.apply_override(o);
+  if (threads >= 0) config.set("threads", std::to_string(threads));
+  return config;
+}
+
+nlohmann::json read_json_file(const std::string& file) {
+  std::ifstream in(file);
+  if (!in) throw make_error(file, "", "cannot open");
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw make_error(file, "", std::string("not valid JSON: ") + e.what());
+  }
+}
+
+// A pose file, or a `recon register` output (its target_from_source).
+Rigid3d read_initial_pose(const std::string& file) {
+  const nlohmann::json j = read_json_file(file);
+  if (j.is_object() && j.contains("target_from_source"))
+    return pose_from_json(j["target_from_source"], file, "target_from_source");
+  return pose_from_json(j, file, "");
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+std::string absolute_path(const std::string& path) { return fs::absolute(path).lexically_normal().string(); }
+
+}  // namespace
+
+void run_recon_register(const ReconRegisterArguments& a) {
+  if (a.out.empty()) throw make_error("--out", "", "an output JSON file is required");
+  Config config = load_stage2_config(a.config_file, a.overrides, a.threads);
+  if (!a.method.empty()) config.set("registration.method", a.method);
+  const PairRegistrationOptions options = pair_registration_options_from_config(config);
+  config.check_all_used();
+  if (fs::exists(a.out) && !a.overwrite) throw make_error(a.out, "", "already exists (use --overwrite to replace it)");
+  std::optional<Rigid3d> initial;
+  if (!a.initial.empty()) initial = read_initial_pose(a.initial);
+  const Panorama source = read_panorama(a.source);
+  const Panorama target = read_panorama(a.target);
+
+  const auto start = std::chrono::steady_clock::now();
+  const PairRegistration r =
+      register_panorama_pair(source, target, options, initial ? &*initial : nullptr, a.source, a.target);
+  const double seconds = seconds_since(start);
+
+  nlohmann::json j;
+  j["source"] = absolute_path(a.source);
+  j["target"] = absolute_path(a.target);
+  j["method"] = to_string(options.icp.method);
+  j["covariance"] = to_string(options.cloud.covariance);
+  j["target_from_source"] = pose_to_json(r.target_from_source);
+  j["initial"] = {{"kind", initial ? "given" : "orb-ransac"},
+                  {"pose", pose_to_json(initial ? *initial : r.guess.target_from_source)}};
+  j["orb"] = {{"success", r.guess.success},        {"failure", r.guess.failure},
+              {"source_features", r.guess.source_features}, {"target_features", r.guess.target_features},
+              {"matches", r.guess.matches},        {"inliers", r.guess.inliers},
+              {"inlier_rmse_m", r.guess.inlier_rmse_m}, {"consistent_with_result", r.consistent_matches}};
+  j["icp"] = {{"iterations", r.icp.iterations},   {"converged", r.icp.converged},
+              {"correspondences", r.icp.correspondences}, {"inlier_fraction", r.icp.inlier_fraction},
+              {"fitness", r.icp.fitness},         {"fitness_distance_m", options.icp.fitness_distance_m},
+              {"rmse_m", r.icp.rmse_m}};
+  // When both panoramas were built in one frame (ground-truth poses of one scene), their stored
+  // poses give the true relative pose; otherwise (tracked, each scan in its own frame) this
+  // difference means nothing.
+  const Rigid3d stored = target.world_from_pano.inverse() * source.world_from_pano;
+  j["difference_from_stored_poses"] = {
+      {"rotation_deg", rad2deg(rotation_angle(stored.linear().transpose() * r.target_from_source.linear()))},
+      {"translation_m", (stored.translation() - r.target_from_source.translation()).norm()},
+      {"note", "meaningful only when both panoramas were built in one frame (e.g. ground-truth poses)"}};
+  j["seconds"] = seconds;
+  write_file_atomic(a.out, j.dump(2) + "\n");
+  const Eigen::Vector3d t = r.target_from_source.translation();
+  std::cout << fmt::format(
+      "registered {} -> {} ({}): t = ({:.4f}, {:.4f}, {:.4f}) m, rotation {:.3f} deg; initial {} ({} ORB inliers, "
+      "{} consistent at the end); {} iterations, fitness {:.2f}, {:.1f} s; wrote {}\n",
+      a.source, a.target, to_string(options.icp.method), t.x(), t.y(), t.z(),
+      rad2deg(rotation_angle(r.target_from_source.linear())), initial ? "given" : "ORB + RANSAC", r.guess.inliers,
+      r.consistent_matches, r.icp.iterations, r.icp.fitness, seconds, a.out);
+}
+
+void run_recon_integrate(const ReconIntegrateArguments& a) {
+  if (a.out.empty()) throw make_error("--out", "", "an output PLY file is required");
+  if (a.panoramas.empty()) throw make_error("--panoramas", "", "at least one panorama folder is needed");
+  Config config = load_stage2_config(a.config_file, a.overrides, a.threads);
+  if (!a.method.empty()) config.set("integration.method", a.method);
+  const IntegrationOptions options = integration_options_from_config(config);
+  // The pixels to use (and their covariances) follow the registration's cloud settings.
+  const PanoramaCloudOptions cloud_options = pair_registration_options_from_config(config).cloud;
+  PoseGraphOptions graph_options;
+  config.check_all_used();
+  if (fs::exists(a.out) && !a.overwrite) throw make_error(a.out, "", "already exists (use --overwrite to replace it)");
+  const int n = int(a.panoramas.size());
+  if (n > 1 && a.poses.empty())
+    throw make_error("--poses", "",
+                     "give the registrations linking the panoramas (outputs of recon register), or 'stored' to use "
+                     "the poses stored in the panoramas (one frame, e.g. ground-truth poses)");
+  std::vector<Panorama> panoramas;
+  for (const std::string& dir : a.panoramas) panoramas.push_back(read_panorama(dir));
+
+  // Poses: the first panorama stays where it is stored; the others follow the registrations.
+  std::vector<Rigid3d> world_from_panorama(n, Rigid3d::Identity());
+  world_from_panorama[0] = panoramas[0].world_from_pano;
+  const bool stored = a.poses.size() == 1 && a.poses[0] == "stored";
+  std::string graph_report;
+  if (stored) {
+    for (int k = 0; k < n; ++k) world_from_panorama[k] = panoramas[k].world_from_pano;
+  } else if (n > 1) {
+    std::vector<std::string> canonical;
+    for (const std::string& dir : a.panoramas) canonical.push_back(fs::weakly_canonical(dir).string());
+    // A registration names its panoramas by absolute path; a folder moved since is found by name
+    // when that name is unique among --panoramas.
+    auto index_of = [&](const std::string& path, const std::string& file, const std::string& field) {
+      const std::string wanted = fs::weakly_canonical(path).string();
+      for (int k = 0; k < n; ++k)
+        if (canonical[k] == wanted) return k;
+      int found = -1, matches = 0;
+      for (int k = 0; k < n; ++k)
+        if (fs::path(canonical[k]).filename() == fs::path(wanted).filename()) found = k, ++matches;
+      if (matches == 1) return found;
+      throw make_error(file, field, "'" + path + "' is not one of --panoramas");
+    };
+    std::vector<PoseGraphEdge> edges;
+    for (const std::string& file : a.poses) {
+      const nlohmann::json j = read_json_file(file);
+      for (const char* field : {"source", "target", "target_from_source"})
+        if (!j.is_object() || !j.contains(field))
+          throw make_error(file, field, "missing (expected an output of recon register)");
+      if (!j["source"].is_string() || !j["target"].is_string())
+        throw make_error(file, "source", "source and target must be panorama folder paths");
+      PoseGraphEdge e;
+      e.from = index_of(j["source"].get<std::string>(), file, "source");
+      e.to = index_of(j["target"].get<std::string>(), file, "target");
+      if (e.from == e.to) throw make_error(file, "target", "registers a panorama with itself");
+      e.to_from_from = pose_from_json(j["target_from_source"], file, "target_from_source");
+      edges.push_back(e);
+    }
+    // Chain along the registrations from the first panorama (breadth first).
+    std::vector<bool> placed(n, false);
+    placed[0] = true;
+    for (bool grew = true; grew;) {
+      grew = false;
+      for (const PoseGraphEdge& e : edges) {
+        if (placed[e.to] && !placed[e.from]) {
+          world_from_panorama[e.from] = world_from_panorama[e.to] * e.to_from_from;
+          placed[e.from] = grew = true;
+        } else if (placed[e.from] && !placed[e.to]) {
+          world_from_panorama[e.to] = world_from_panorama[e.from] * e.to_from_from.inverse();
+          placed[e.to] = grew = true;
+        }
+      }
+    }
+    for (int k = 0; k < n; ++k)
+      if (!placed[k])
+        throw make_error(a.panoramas[k], "--poses", "no chain of registrations links it to " + a.panoramas[0]);
+    if (int(edges.size()) > n - 1) {
+      const EdgeDiscrepancy before = worst_edge_discrepancy(world_from_panorama, edges);
+      graph_options.fixed_node = 0;
+      world_from_panorama = optimize_pose_graph(world_from_panorama, edges, graph_options).world_from_node;
+      const EdgeDiscrepancy after = worst_edge_discrepancy(world_from_panorama, edges);
+      graph_report = fmt::format("; pose graph over {} registrations: worst inconsistency {:.3f} deg / {:.1f} mm -> "
+                                 "{:.3f} deg / {:.1f} mm",
+                                 edges.size(), before.rotation_deg, before.translation_m * 1e3, after.rotation_deg,
+                                 after.translation_m * 1e3);
+    }
+  }
+
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<PanoramaPoints> points;
+  for (int k = 0; k < n; ++k) {
+    try {
+      points.push_back(panorama_integration_points(panoramas[k], world_from_panorama[k], cloud_options));
+    } catch (const Error& e) {
+      throw make_error(a.panoramas[k], "", e.what());
+    }
+  }
+  const IntegrationResult result = integrate_panoramas(points, options);
+  const double seconds = seconds_since(start);
+  PlyWriteOptions ply;
+  ply.comments.push_back(fmt::format("panoscan recon integrate: {} panoramas, {}", n, to_string(options.method)));
+  write_ply_point_cloud(a.out, result.cloud, ply);
+  std::cout << fmt::format("integrated {} panoramas ({}): {} pixels, {} mutual pairs, {} groups of {} pixels -> {} "
+                           "points{}; {:.1f} s; wrote {}\n",
+                           n, to_string(options.method), result.input_points, result.mutual_pairs, result.groups,
+                           result.grouped_points, result.cloud.size(), graph_report, seconds, a.out);
+}
+
+}  // namespace panoscan::app

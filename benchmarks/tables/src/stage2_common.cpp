@@ -1,0 +1,126 @@
+// Shared parts of the stage-2 drivers (table4.cpp, table5.cpp); see stage2_common.h.
+#include "stage2_common.h"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include <fmt/format.h>
+
+#include "panoscan/core/config.h"
+#include "panoscan/core/error.h"
+#include "panoscan/core/log.h"
+#include "panoscan/core/scan.h"
+#include "panoscan/eval/groundtruth.h"
+#include "panoscan/scenes/scenes.h"
+
+namespace fs = std::filesystem;
+
+namespace panoscan::tables::stage2 {
+
+namespace {
+
+// An exclusive flock for the lifetime of the object: concurrent gates build a panorama once.
+class PanoramaLock {
+ public:
+  explicit PanoramaLock(const fs::path& path) {
+    fd_ = ::open(path.c_str(), O_CREAT | O_RDWR, 0644);
+    if (fd_ < 0) throw make_error(path.string(), "", "cannot open the panorama cache lock file");
+    if (::flock(fd_, LOCK_EX) != 0) {
+      ::close(fd_);
+      throw make_error(path.string(), "", "cannot lock the panorama cache");
+    }
+  }
+  ~PanoramaLock() {
+    ::flock(fd_, LOCK_UN);
+    ::close(fd_);
+  }
+  PanoramaLock(const PanoramaLock&) = delete;
+  PanoramaLock& operator=(const PanoramaLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+}  // namespace
+
+Panorama ground_truth_panorama(const std::string& label, const TablesOptions& options) {
+  const SizePreset preset = size_preset(options.size);
+  const fs::path scan_dir = cached_scan(label, options);
+  const fs::path cache = (options.cache.empty() ? options.out / "scans" : options.cache) / "panoramas";
+  fs::create_directories(cache);
+  // The scan's key (its folder name) names the scan; the rest names what changes the panorama.
+  const std::string key = fmt::format("{}_gt_tsa_H{}", scan_dir.filename().string(), preset.panorama_height);
+  const fs::path dir = cache / key;
+  PanoramaLock lock(cache / (key + ".lock"));
+  if (fs::exists(dir / "panorama.json")) return read_panorama(dir);
+  Config config;
+  config.set("panorama.height", std::to_string(preset.panorama_height));
+  config.set("panorama.method", "tsa");
+  if (options.threads > 0) config.set("threads", std::to_string(options.threads));
+  const PanoramaOptions panorama_options = panorama_options_from_config(config);
+  config.check_all_used();
+  log_info(fmt::format("tables: building the ground-truth-pose panorama of {} into {}", label, dir.string()));
+  const ScanIndex scan = read_scan_index(scan_dir);
+  const PanoramaResult result =
+      build_panorama(scan, eval::groundtruth_rig_trajectory(scan_dir), panorama_options);
+  write_panorama(dir, result.panorama, false);
+  return result.panorama;
+}
+
+std::unique_ptr<eval::MeshDistance> scene_mesh(const std::string& label) {
+  std::string scene;
+  if (label.rfind("SL", 0) == 0) scene = "living_room";
+  else if (label.rfind("SO", 0) == 0) scene = "office";
+  else throw make_error("scan", label, "unknown built-in scan label (expected SL-... or SO-...)");
+  return std::make_unique<eval::MeshDistance>(scenes::make_builtin_scene(scene).mesh, scene);
+}
+
+int registration_stride(int panorama_height) { return std::max(1, panorama_height / 256); }
+
+PairRegistrationOptions registration_options(const TablesOptions& options) {
+  Config config;  // the defaults, through the same path as `recon register`
+  PairRegistrationOptions r = pair_registration_options_from_config(config);
+  r.cloud.pixel_stride = registration_stride(size_preset(options.size).panorama_height);
+  r.icp.threads = options.threads;
+  r.cloud.surface.threads = options.threads;
+  r.features.seed = options.seed;
+  return r;
+}
+
+PanoramaCloudOptions integration_cloud_options(const TablesOptions& options) {
+  PanoramaCloudOptions cloud = registration_options(options).cloud;
+  cloud.pixel_stride = 1;
+  return cloud;
+}
+
+std::vector<std::string> pair_labels(const TablesOptions& options) {
+  if (options.only.empty()) return size_preset(options.size).pairs;
+  std::vector<std::string> pairs;
+  for (const std::string& label : options.only) {
+    const auto dash = label.find('-');
+    if (dash != std::string::npos && label.size() == dash + 3) pairs.push_back(label);
+  }
+  return pairs;
+}
+
+DistanceStats distance_stats(std::vector<double> d) {
+  DistanceStats s;
+  if (d.empty()) return s;
+  double sum = 0, sum2 = 0;
+  for (double x : d) {
+    sum += x;
+    sum2 += x * x;
+  }
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  s.rmse_mm = std::sqrt(sum2 / d.size()) * 1e3;
+  s.mean_mm = sum / d.size() * 1e3;
+  s.median_mm = d[d.size() / 2] * 1e3;
+  return s;
+}
+
+}  // namespace panoscan::tables::stage2
