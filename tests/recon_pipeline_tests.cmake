@@ -1,2 +1,6 @@
 panoscan_add_test(recon_stage2_test SOURCES recon_stage2_test.cpp
-  DEPS panoscan_recon_pipeline panoscan_sim panoscan_scenes panoscan_eval LABELS e2e)
+  DEPS panoscan_recon_pipeline panoscan_sim panoscan_scenes panoscan_eval nlohmann_json::nlohmann_json LABELS e2e)
+# Its command tests run the panoscan program.
+if(TARGET panoscan)
+  add_dependencies(recon_stage2_test panoscan)
+endif()

@@ -1,15 +1,22 @@
 // Stage 2 (paper §5) on panoramas with known noise: pair registration (ORB guess, GICP with the
 // measured variance, verification by the features) and integration into one cloud.
+#include <array>
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "panoscan/core/error.h"
 #include "panoscan/core/random.h"
 #include "panoscan/eval/mesh_distance.h"
 #include "panoscan/recon/stage2.h"
 #include "panoscan/scenes/scenes.h"
+#include "panoscan/core/point_cloud.h"
+#include "panoscan/core/pose_json.h"
 #include "panoscan/sim/renderer.h"
+#include "test_util.h"
 
 using namespace panoscan;
 
@@ -109,4 +116,166 @@ TEST(Stage2, IntegrationWithMapBeatsAlignOnlyAgainstTheMesh) {
               align * 1e3, average * 1e3, map * 1e3, map_result.groups);
   EXPECT_LT(average, align);
   EXPECT_LT(map, average);
+}
+
+// ---- The commands `panoscan recon register` and `panoscan recon integrate` on panorama folders.
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunResult {
+  int exit_code = 0;
+  std::string output;
+};
+
+RunResult run_panoscan(const std::string& arguments) {
+  const std::string command = std::string(PANOSCAN_BINARY_DIR) + "/app/panoscan " + arguments + " 2>&1";
+  RunResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  std::array<char, 4096> buffer{};
+  while (fgets(buffer.data(), buffer.size(), pipe)) result.output += buffer.data();
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+void expect_failure_naming(const RunResult& r, const std::vector<std::string>& needles) {
+  EXPECT_NE(r.exit_code, 0) << r.output;
+  for (const auto& needle : needles)
+    EXPECT_NE(r.output.find(needle), std::string::npos) << "missing '" << needle << "' in: " << r.output;
+}
+
+// Two office panoramas (SO-1 and SO-3 positions, the second turned by -25 degrees) in folders.
+struct OfficePanoramaFolders {
+  testutil::TempDir tmp{"stage2-cli"};
+  fs::path a = tmp / "SO-1-pano", b = tmp / "SO-3-pano";
+  Rigid3d b_from_a_truth;  // target_from_source for source a, target b
+  OfficePanoramaFolders() {
+    const Scene scene = scenes::make_builtin_scene("office");
+    const Renderer renderer(scene);
+    const Rigid3d world_from_a = pose_at(scene, 0, 0.0), world_from_b = pose_at(scene, 2, deg2rad(-25));
+    write_panorama(a, synthetic_panorama(renderer, world_from_a, 256, 11), false);
+    write_panorama(b, synthetic_panorama(renderer, world_from_b, 256, 12), false);
+    b_from_a_truth = world_from_b.inverse() * world_from_a;
+  }
+};
+
+}  // namespace
+
+TEST(Stage2Commands, RegisterThenIntegrateTwoPanoramaFolders) {
+  OfficePanoramaFolders f;
+  const fs::path registration = f.tmp / "a-to-b.json";
+  const RunResult r = run_panoscan("recon register --source " + f.a.string() + " --target " + f.b.string() +
+                                   " --out " + registration.string() + " --threads 2");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  nlohmann::json j;
+  std::ifstream(registration) >> j;
+  const Rigid3d estimate = pose_from_json(j["target_from_source"], registration.string(), "target_from_source");
+  const double rotation_error =
+      rad2deg(rotation_angle(estimate.linear().transpose() * f.b_from_a_truth.linear()));
+  const double translation_error = (estimate.translation() - f.b_from_a_truth.translation()).norm();
+  std::printf("recon register: %.4f deg, %.2f mm; %s", rotation_error, translation_error * 1e3, r.output.c_str());
+  EXPECT_LT(rotation_error, 0.1);
+  EXPECT_LT(translation_error, 0.005);
+  EXPECT_EQ(j["method"], "gicp-ours");
+  EXPECT_TRUE(j["orb"]["success"].get<bool>());
+
+  // Integrating with that registration: MAP merges pixels; the cloud has colour and variance.
+  const fs::path map = f.tmp / "map.ply", align = f.tmp / "align.ply";
+  const RunResult m = run_panoscan("recon integrate --panoramas " + f.a.string() + " " + f.b.string() + " --poses " +
+                                   registration.string() + " --method map --out " + map.string() + " --threads 2");
+  ASSERT_EQ(m.exit_code, 0) << m.output;
+  const RunResult al = run_panoscan("recon integrate --panoramas " + f.a.string() + " " + f.b.string() + " --poses " +
+                                    registration.string() + " --method align --out " + align.string());
+  ASSERT_EQ(al.exit_code, 0) << al.output;
+  const PointCloud merged = read_ply_point_cloud(map), all = read_ply_point_cloud(align);
+  EXPECT_LT(merged.size(), all.size());
+  EXPECT_GT(merged.size(), all.size() / 2);
+  EXPECT_EQ(merged.colours.size(), merged.size());
+  EXPECT_EQ(merged.variances.size(), merged.size());
+  // The given initial pose path: the previous output as --initial gives the same pose.
+  const fs::path again = f.tmp / "again.json";
+  const RunResult g = run_panoscan("recon register --source " + f.a.string() + " --target " + f.b.string() +
+                                   " --initial " + registration.string() + " --out " + again.string());
+  ASSERT_EQ(g.exit_code, 0) << g.output;
+  // An existing output is not replaced without --overwrite.
+  expect_failure_naming(run_panoscan("recon register --source " + f.a.string() + " --target " + f.b.string() +
+                                     " --out " + registration.string()),
+                        {registration.string(), "--overwrite"});
+}
+
+TEST(Stage2Commands, BadInputIsAClearErrorAndWritesNothing) {
+  OfficePanoramaFolders f;
+  const std::string out = (f.tmp / "out.json").string();
+  const std::string pair = " --source " + f.a.string() + " --target " + f.b.string();
+
+  // Different sizes.
+  {
+    const Scene scene = scenes::make_builtin_scene("office");
+    write_panorama(f.tmp / "small", synthetic_panorama(Renderer(scene), pose_at(scene, 2, 0.0), 128, 13), false);
+  }
+  expect_failure_naming(run_panoscan("recon register --source " + (f.tmp / "small").string() + " --target " +
+                                     f.b.string() + " --out " + out),
+                        {"small", "size", "differ"});
+
+  // No valid pixels.
+  {
+    Panorama empty = read_panorama(f.a);
+    std::fill(empty.depth.data.begin(), empty.depth.data.end(), 0.f);
+    std::fill(empty.count.data.begin(), empty.count.data.end(), 0.f);
+    std::fill(empty.variance.data.begin(), empty.variance.data.end(), 0.f);
+    write_panorama(f.tmp / "empty", empty, false);
+  }
+  expect_failure_naming(run_panoscan("recon register --source " + (f.tmp / "empty").string() + " --target " +
+                                     f.b.string() + " --out " + out),
+                        {"empty", "usable pixels"});
+
+  // Non-overlapping: the living room against the office. Without a pose the ORB guess fails; with
+  // one, the panoramas do not overlap there.
+  {
+    const Scene living = scenes::make_builtin_scene("living_room");
+    const Rigid3d pose = make_rigid(Eigen::Matrix3d::Identity(),
+                                    living.positions[0].floor_point + Eigen::Vector3d(0, 0, 1.1));
+    write_panorama(f.tmp / "living", synthetic_panorama(Renderer(living), pose, 256, 14), false);
+  }
+  const std::string other = " --source " + (f.tmp / "living").string() + " --target " + f.b.string();
+  expect_failure_naming(run_panoscan("recon register" + other + " --out " + out), {"living", "initial"});
+  {
+    std::ofstream(f.tmp / "identity.json") << pose_to_json(Rigid3d::Identity()).dump();
+  }
+  const RunResult forced = run_panoscan("recon register" + other + " --initial " + (f.tmp / "identity.json").string() +
+                                        " --out " + out);
+  expect_failure_naming(forced, {"living", "registration"});
+  std::printf("non-overlapping with a given pose: %s", forced.output.c_str());
+
+  // Bad files and fields.
+  { std::ofstream(f.tmp / "broken.json") << "{ not json"; }
+  expect_failure_naming(run_panoscan("recon register" + pair + " --initial " + (f.tmp / "broken.json").string() +
+                                     " --out " + out),
+                        {"broken.json"});
+  expect_failure_naming(run_panoscan("recon register" + pair + " --method icp-best --out " + out),
+                        {"registration.method"});
+  expect_failure_naming(run_panoscan("recon register --source " + (f.tmp / "missing").string() + " --target " +
+                                     f.b.string() + " --out " + out),
+                        {"missing"});
+  EXPECT_FALSE(fs::exists(out));
+
+  // integrate: several panoramas need poses; a registration must name the given panoramas.
+  const std::string cloud = (f.tmp / "cloud.ply").string();
+  const std::string both = " --panoramas " + f.a.string() + " " + f.b.string();
+  expect_failure_naming(run_panoscan("recon integrate" + both + " --out " + cloud), {"--poses"});
+  {
+    nlohmann::json j;
+    j["source"] = (f.tmp / "elsewhere").string();
+    j["target"] = f.b.string();
+    j["target_from_source"] = pose_to_json(Rigid3d::Identity());
+    std::ofstream(f.tmp / "stray.json") << j.dump();
+  }
+  expect_failure_naming(run_panoscan("recon integrate" + both + " --poses " + (f.tmp / "stray.json").string() +
+                                     " --out " + cloud),
+                        {"stray.json", "source"});
+  expect_failure_naming(run_panoscan("recon integrate" + both + " --poses stored --method median --out " + cloud),
+                        {"integration.method"});
+  EXPECT_FALSE(fs::exists(cloud));
 }

@@ -123,6 +123,13 @@ PairRegistration register_panorama_pair(const Panorama& source, const Panorama& 
     throw make_error(pair, "", e.what());
   }
   result.target_from_source = result.icp.target_from_source;
+  if (result.icp.fitness < options.min_fitness)
+    throw make_error(pair, "registration",
+                     "failed: the panoramas do not overlap at the final pose (only " +
+                         std::to_string(int(std::lround(100 * result.icp.fitness))) + "% of the source points within " +
+                         std::to_string(int(std::lround(1000 * options.icp.fitness_distance_m))) +
+                         " mm of the target, minimum " + std::to_string(int(std::lround(100 * options.min_fitness))) +
+                         "%)");
   // Verification: the geometry alone cannot tell a wrong local minimum in a box-like room; the
   // feature matches can (a wrong pose explains few of them).
   if (result.guess.inliers >= options.features.min_inliers) {
@@ -163,7 +170,7 @@ PairRegistrationOptions pair_registration_options_from_config(Config& config) {
       {"p2point", "p2plane", "p2plane-curv", "gicp", "anisotropic", "gicp-def", "gicp-ours"}));
   icp.max_correspondence_m = config.get_double("registration.max_correspondence_m", icp.max_correspondence_m, 1e-3, 10.0);
   icp.max_iterations = config.get_int("registration.max_iterations", icp.max_iterations, 1, 1000);
-  icp.min_fitness = config.get_double("registration.min_fitness", icp.min_fitness, 0.0, 1.0);
+  options.min_fitness = config.get_double("registration.min_fitness", options.min_fitness, 0.0, 1.0);
   icp.threads = config.get_int("threads", 0, 0, 1024);
   PanoramaCloudOptions& cloud = options.cloud;
   // "Def." (Table 4) means the general noise model in place of the measured variance.
