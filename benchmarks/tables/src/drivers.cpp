@@ -8,6 +8,7 @@ std::vector<TableDriver> all_drivers() {
   drivers.push_back(table1_driver());
   drivers.push_back(table3_driver());
   drivers.push_back(table4_driver());
+  drivers.push_back(table5_driver());
   drivers.push_back(table6_driver());
   return drivers;
 }

@@ -15,6 +15,7 @@ std::vector<TableDriver> all_drivers();
 TableDriver table1_driver();
 TableDriver table3_driver();
 TableDriver table4_driver();
+TableDriver table5_driver();
 TableDriver table6_driver();
 
 }  // namespace panoscan::tables

@@ -1,0 +1,81 @@
+// Gate of Table 4 (paper §6.3): registration of the quick-size pair SO-13 (panoramas from
+// ground-truth poses, every method from the same ORB guess). Checks the paper's orderings that hold
+// on our data, the effect of the measured variance, and ceilings set from the measured values.
+//
+// Measured (quick size, 2 threads): RMSE of the pair's cloud 3.192 (point-to-point), 3.062
+// (point-to-plane), 3.019 (GICP), 3.020 (GICP Ours), 3.023 (Ours with a constant sigma_z), floor
+// with the true pose 3.017 mm; RMS displacement of the source's pixels 3.061 / 1.752 / 0.291 / 0.386
+// / 0.537 mm. The paper's "Ours <= plain GICP" does NOT hold here (0.386 vs 0.291 mm; 3.020 vs
+// 3.019 mm RMSE, both at the noise floor) and is not gated; see the report of issue 7.
+// Checked to fail with the measured variance replaced by a constant (the "GICP (Ours)" row run on
+// DepthCovarianceModel::kConstant): MeasuredVarianceBeatsAConstant fails.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+
+#include "gate_util.h"
+#include "panoscan/eval/report.h"
+#include "panoscan/tables/tables.h"
+
+using namespace panoscan;
+
+namespace {
+
+const tables::TableRun& table4_run() {
+  static const tables::TableRun run = [] {
+    tables::TablesOptions options = test::gate_options();
+    return tables::table_driver("table4").run(options);
+  }();
+  return run;
+}
+
+constexpr const char* kPair = "SO-13";
+constexpr const char* kOurs = "GICP (Ours)";
+
+}  // namespace
+
+TEST(GateTable4, EveryRowRegistered) {
+  const tables::TableRun& run = table4_run();
+  for (const auto& t : run.tables) std::cout << eval::table_to_markdown(t);
+  for (const auto& n : run.notes) std::cout << "- " << n << "\n";
+  const eval::ResultTable& rmse = run.table("Table 4:");
+  for (const std::string& row : rmse.methods) EXPECT_TRUE(std::isfinite(rmse.get(row, kPair))) << row;
+  EXPECT_EQ(rmse.methods.size(), 11u);  // 7 of the paper, 1 ablation, 2 outside references, the floor
+}
+
+TEST(GateTable4, PaperOrderingAgainstPointToPointAndPointToPlane) {
+  const tables::TableRun& run = table4_run();
+  const eval::ResultTable& rmse = run.table("Table 4:");
+  const eval::ResultTable& moved = run.table("Table 4 (registration error): RMS");
+  // The paper: point-to-point > point-to-plane > the GICP family on every pair.
+  EXPECT_LT(rmse.get("Point-to-plane", kPair), rmse.get("Point-to-point", kPair));
+  EXPECT_LT(rmse.get(kOurs, kPair), rmse.get("Point-to-plane", kPair));
+  EXPECT_LT(rmse.get(kOurs, kPair), rmse.get("Point-to-plane (Curv)", kPair) + 1e-9);
+  EXPECT_LT(moved.get(kOurs, kPair), moved.get("Point-to-plane", kPair));
+  EXPECT_LT(moved.get(kOurs, kPair), moved.get("Point-to-point", kPair));
+}
+
+TEST(GateTable4, MeasuredVarianceBeatsAConstant) {
+  // The per-pixel measured variance against the same model with one sigma_z per panorama (its median).
+  const tables::TableRun& run = table4_run();
+  const std::string ablation = "GICP (Ours, constant sigma_z; ablation)";
+  const eval::ResultTable& moved = run.table("Table 4 (registration error): RMS");
+  const eval::ResultTable& rmse = run.table("Table 4:");
+  EXPECT_LT(moved.get(kOurs, kPair), moved.get(ablation, kPair));
+  EXPECT_LT(rmse.get(kOurs, kPair), rmse.get(ablation, kPair));
+}
+
+TEST(GateTable4, Ceilings) {
+  const tables::TableRun& run = table4_run();
+  const eval::ResultTable& rmse = run.table("Table 4:");
+  const eval::ResultTable& moved = run.table("Table 4 (registration error): RMS");
+  const eval::ResultTable& rotation = run.table("Table 4 (registration error): rotation");
+  // Ours: 3.020 mm RMSE, 0.003 mm above the true pose's floor; 0.39 mm displacement; 0.0005 deg.
+  EXPECT_LT(rmse.get(kOurs, kPair), 3.3);
+  EXPECT_LT(rmse.get(kOurs, kPair) - rmse.get("Ground-truth relative pose (noise floor, reference)", kPair), 0.05);
+  EXPECT_LT(moved.get(kOurs, kPair), 1.0);
+  EXPECT_LT(rotation.get(kOurs, kPair), 0.01);
+  // Point-to-point: 3.192 mm RMSE.
+  EXPECT_LT(rmse.get("Point-to-point", kPair), 3.6);
+}
