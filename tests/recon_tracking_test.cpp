@@ -3,6 +3,8 @@
 // bad input. One scan and one front end are shared by the tests of the suite.
 #include <gtest/gtest.h>
 
+#include <Eigen/SVD>
+
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -75,17 +77,15 @@ class TrackingTest : public ::testing::Test {
     eval::TrajectoryMetricsOptions metrics_options;
     metrics_options.rpe_delta_s = 1.0;
     const int sensors = int(scan_->rig.sensors.size());
-    const int ref = scan_->rig.reference_sensor;
-    Rigid3d truth_from_estimate = Rigid3d::Identity();
     for (int s = 0; s < sensors; ++s) {
       const auto metrics = eval::evaluate_trajectory(truth_->world_from_cam[s], result.trajectory.world_from_cam[s],
                                                      metrics_options, "truth", label);
       figures.ate_m += metrics.ate_m.rmse / sensors;
-      // The estimate lives in the frame of the reference camera's first frame; the ATE alignment of
-      // the reference camera (all its frames, so the wobble of one frame averages out) maps it to the truth.
-      if (s == ref) truth_from_estimate = metrics.gt_from_est;
     }
-    figures.axis = eval::axis_error(eval::axis_line(truth_from_estimate * result.trajectory.world_from_axis),
+    // The estimate lives in the frame of the reference camera's first frame. The ATE alignment
+    // (positions only) is ill-conditioned in tilt, since the camera centres lie on a circle of
+    // about 10 cm; the pose alignment uses the orientations of every frame as well.
+    figures.axis = eval::axis_error(eval::axis_line(pose_alignment(result.trajectory) * result.trajectory.world_from_axis),
                                     eval::axis_line(truth_->world_from_axis));
     figures.extrinsics = eval::extrinsics_errors(result.trajectory.ref_from_cam, truth_->ref_from_cam);
     std::printf("%-22s ATE %.2f mm, axis %.3f deg %.2f mm, extrinsics cam0 %.3f deg %.2f mm cam2 %.3f deg %.2f mm, "
@@ -96,6 +96,28 @@ class TrackingTest : public ::testing::Test {
                 result.stats.initial_cost, result.stats.final_cost, result.stats.solve_seconds,
                 result.stats.converged ? "converged" : result.stats.termination.c_str());
     return figures;
+  }
+
+  // truth_from_estimate over all frames of all cameras: the rotation is the chordal mean of
+  // R_true R_est^T (its projection onto SO(3)), the translation matches the centroids.
+  static Rigid3d pose_alignment(const RigTrajectory& estimate) {
+    Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d truth_centroid = Eigen::Vector3d::Zero(), estimate_centroid = Eigen::Vector3d::Zero();
+    int count = 0;
+    for (std::size_t s = 0; s < estimate.world_from_cam.size(); ++s)
+      for (std::size_t f = 0; f < estimate.world_from_cam[s].size(); ++f) {
+        const Rigid3d& t = truth_->world_from_cam[s][f].world_from_cam;
+        const Rigid3d& e = estimate.world_from_cam[s][f].world_from_cam;
+        sum += t.linear() * e.linear().transpose();
+        truth_centroid += t.translation();
+        estimate_centroid += e.translation();
+        ++count;
+      }
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d u = svd.matrixU();
+    if ((u * svd.matrixV().transpose()).determinant() < 0) u.col(2) *= -1;
+    const Eigen::Matrix3d rotation = u * svd.matrixV().transpose();
+    return make_rigid(rotation, (truth_centroid - rotation * estimate_centroid) / count);
   }
 
   // Runs (once per label: the tests share results) and evaluates one configuration.
@@ -154,9 +176,11 @@ TEST_F(TrackingTest, FullGraphBeatsItsAblationsAndRecoversAxisAndExtrinsics) {
   EXPECT_LT(full.ate_m, 0.7 * ba_only.ate_m);
   EXPECT_LT(full.ate_m, 0.7 * without_eq2.ate_m);
   EXPECT_LE(full.ate_m, 1.05 * without_eq3.ate_m);  // Eq. 3 matters where features are missing (below)
-  // Axis within 0.5 deg and 1 cm of the truth.
-  EXPECT_LT(full.axis.angle_deg, 0.5);
-  EXPECT_LT(full.axis.offset_at_reference_m, 0.01);
+  // Axis within 0.25 deg and 5 mm of the truth (issue: 0.5 deg and 1 cm), pose-aligned. Measured
+  // 0.12 deg, 1.2 mm (BA only: 0.47 deg, 5.7 mm). (The free rig pose T_r of tracking.h makes no
+  // difference on this scan, whose first frame wobbles little; gate_table2 checks it on SO-1 and SL-1.)
+  EXPECT_LT(full.axis.angle_deg, 0.25);
+  EXPECT_LT(full.axis.offset_at_reference_m, 0.005);
   // Refined extrinsics closer to the truth than the calibrated ones they started from.
   const auto calibrated = eval::extrinsics_errors(
       [&] {

@@ -9,6 +9,7 @@
 #include "panoscan/recon/tracking.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -149,7 +150,8 @@ bool finite(const Rigid3d& pose) { return pose.matrix().allFinite(); }
 
 }  // namespace
 
-TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& frontend, const TrackingOptions& options) {
+TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& frontend, const TrackingOptions& options,
+                                   const RigTrajectory* initial_guess) {
   options.check();
   const auto start = std::chrono::steady_clock::now();
   const int sensor_count = int(scan.rig.sensors.size());
@@ -192,7 +194,27 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
     }
   }
   PoseBlock axis = PoseBlock::from(world_from_axis0);
+  if (initial_guess) {  // start from the given poses, moved into the gauge (the first reference frame = identity)
+    check_rig_trajectory(*initial_guess, scan, origin + " (initial guess)");
+    const Rigid3d gauge = initial_guess->world_from_cam[ref].front().world_from_cam.inverse();
+    const Rigid3d world_from_axis = gauge * initial_guess->world_from_axis;
+    axis = PoseBlock::from(world_from_axis);
+    for (int s = 0; s < sensor_count; ++s) {
+      std::vector<Rigid3d> world_from_cam;
+      for (const StampedPose& p : initial_guess->world_from_cam[s]) world_from_cam.push_back(gauge * p.world_from_cam);
+      if (s != ref) extrinsics[s] = PoseBlock::from(initial_guess->ref_from_cam[s]);
+      const std::vector<double> a = azimuths(world_from_cam, world_from_axis, initial_guess->ref_from_cam[s]);
+      for (std::size_t f = 0; f < world_from_cam.size(); ++f) {
+        poses[s][f] = PoseBlock::from(world_from_cam[f]);
+        alpha[s][f] = a[f];
+      }
+    }
+  }
   PoseBlock identity;
+  // T_r (world_from_rig): the reference camera at alpha = 0 without its wobble (tracking.h). The
+  // first reference frame is the world origin, so T_r starts at T_u R(alpha_ref0)^-1 T_u^-1 (the
+  // identity for the standard initialisation, where alpha_ref0 = 0).
+  PoseBlock rig = PoseBlock::from(axis.pose() * axis_rotation(-alpha[ref][0]) * axis.pose().inverse());
 
   // Landmarks restricted to the active sensors, initialised from their first observation.
   std::vector<std::vector<Observation>> tracks;
@@ -223,6 +245,19 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   auto huber = std::make_unique<ceres::HuberLoss>(options.huber_delta);
   TrackingStats stats;
   stats.mode = to_string(options.mode);
+  // The residual blocks of each kind of factor, for the cost of each term (stats).
+  enum FactorKind { kObservation, kRegularisation, kVelocity, kPriors, kFactorKinds };
+  std::array<std::vector<ceres::ResidualBlockId>, kFactorKinds> factor_blocks;
+  auto term_costs = [&](std::array<double, 4>& out) {
+    for (int k = 0; k < kFactorKinds; ++k) {
+      out[k] = 0;
+      if (factor_blocks[k].empty()) continue;
+      ceres::Problem::EvaluateOptions evaluate;
+      evaluate.residual_blocks = factor_blocks[k];
+      evaluate.num_threads = 1;
+      problem.Evaluate(evaluate, &out[k], nullptr, nullptr, nullptr);
+    }
+  };
 
   // Eq. 1: landmark observations.
   for (std::size_t j = 0; j < tracks.size(); ++j)
@@ -231,9 +266,9 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
       const PinholeIntrinsics& in = scan.rig.sensors[o.sensor].intrinsics;
       const double sigma_px = std::pow(options.frontend.orb_scale_factor, kp.octave);
       const double sigma_d = options.depth_noise_coefficient * double(kp.depth) * kp.depth;
-      problem.AddResidualBlock(
+      factor_blocks[kObservation].push_back(problem.AddResidualBlock(
           tf::ObservationCost::create(kp.u, kp.v, kp.depth, in.fx, in.fy, in.cx, in.cy, sigma_px, sigma_d), huber.get(),
-          poses[o.sensor][o.frame].q, poses[o.sensor][o.frame].t, landmarks[j].data());
+          poses[o.sensor][o.frame].q, poses[o.sensor][o.frame].t, landmarks[j].data()));
       ++stats.observations;
     }
 
@@ -244,16 +279,18 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
       if (!active[s]) continue;
       PoseBlock& cam = s == ref ? identity : extrinsics[s];
       for (std::size_t f = 0; f < poses[s].size(); ++f)
-        problem.AddResidualBlock(tf::RegularisationCost::create(sigma_t, sigma_r), nullptr, poses[s][f].q, poses[s][f].t,
-                                 &alpha[s][f], axis.q, axis.t, cam.q, cam.t);
+        factor_blocks[kRegularisation].push_back(problem.AddResidualBlock(tf::RegularisationCost::create(sigma_t, sigma_r), nullptr,
+                                                                   poses[s][f].q, poses[s][f].t, &alpha[s][f], axis.q,
+                                                                   axis.t, rig.q, rig.t, cam.q, cam.t));
     }
-    problem.AddResidualBlock(tf::PosePriorCost::create(axis.q, axis.t, 1.0, 1.0), nullptr, axis.q, axis.t);
+    factor_blocks[kPriors].push_back(problem.AddResidualBlock(tf::PosePriorCost::create(axis.q, axis.t, 1.0, 1.0), nullptr, axis.q, axis.t));
     // The calibration as a prior on T_c (see tracking.h).
     for (int s = 0; s < sensor_count; ++s)
       if (s != ref && active[s] && options.mode != TrackingMode::kFixedExtrinsics)
-        problem.AddResidualBlock(tf::PosePriorCost::create(extrinsics[s].q, extrinsics[s].t, options.extrinsics_prior_translation_std_m,
-                                                           deg2rad(options.extrinsics_prior_rotation_std_deg)),
-                                 nullptr, extrinsics[s].q, extrinsics[s].t);
+        factor_blocks[kPriors].push_back(problem.AddResidualBlock(
+            tf::PosePriorCost::create(extrinsics[s].q, extrinsics[s].t, options.extrinsics_prior_translation_std_m,
+                                      deg2rad(options.extrinsics_prior_rotation_std_deg)),
+            nullptr, extrinsics[s].q, extrinsics[s].t));
   }
 
   // Eq. 3: velocity smoothness over all frames of all cameras in timestamp order.
@@ -264,21 +301,21 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
       if (active[s])
         for (std::size_t f = 0; f < poses[s].size(); ++f) nodes.push_back({scan.frames[s][f].timestamp, s, int(f)});
     std::sort(nodes.begin(), nodes.end(), [](const Node& a, const Node& b) { return a.t != b.t ? a.t < b.t : a.s < b.s; });
-    std::vector<Node> groups;  // one representative per instant
+    std::vector<Node> instants;  // one representative per instant
     const double sigma_accel = deg2rad(options.angular_accel_std_deg_s2);
     for (const Node& n : nodes) {
-      if (!groups.empty() && n.t - groups.back().t < options.same_time_s) {
-        problem.AddResidualBlock(tf::SameTimeCost::create(1e-6), nullptr, &alpha[groups.back().s][groups.back().f],
-                                 &alpha[n.s][n.f]);
+      if (!instants.empty() && n.t - instants.back().t < options.same_time_s) {
+        factor_blocks[kVelocity].push_back(problem.AddResidualBlock(
+            tf::SameTimeCost::create(1e-6), nullptr, &alpha[instants.back().s][instants.back().f], &alpha[n.s][n.f]));
         continue;
       }
-      groups.push_back(n);
+      instants.push_back(n);
     }
-    for (std::size_t k = 1; k + 1 < groups.size(); ++k) {
-      const Node &a = groups[k - 1], &b = groups[k], &c = groups[k + 1];
+    for (std::size_t k = 1; k + 1 < instants.size(); ++k) {
+      const Node &a = instants[k - 1], &b = instants[k], &c = instants[k + 1];
       const double sigma = sigma_accel * (options.velocity_std_scales_with_dt ? 0.5 * (c.t - a.t) : 1.0);
-      problem.AddResidualBlock(tf::VelocityCost::create(a.t, b.t, c.t, sigma), nullptr, &alpha[a.s][a.f],
-                               &alpha[b.s][b.f], &alpha[c.s][c.f]);
+      factor_blocks[kVelocity].push_back(problem.AddResidualBlock(tf::VelocityCost::create(a.t, b.t, c.t, sigma), nullptr,
+                                                                  &alpha[a.s][a.f], &alpha[b.s][b.f], &alpha[c.s][c.f]));
     }
   }
 
@@ -312,6 +349,12 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
     problem.SetParameterBlockConstant(identity.t);
   }
   if (problem.HasParameterBlock(axis.q)) problem.SetManifold(axis.q, quaternion_manifold.get());
+  if (problem.HasParameterBlock(rig.q)) {
+    problem.SetManifold(rig.q, quaternion_manifold.get());
+    // Gauge of T_r: a rotation of T_r about the axis is a shift of every azimuth; the first
+    // reference azimuth is held instead.
+    problem.SetParameterBlockConstant(&alpha[ref][0]);
+  }
   // A frame of an active camera outside every factor (ba-only without observations) keeps its start.
 
   ceres::Solver::Options solver_options;
@@ -327,7 +370,11 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   // varies between runs (measured: about 25% faster but not reproducible); its automatic ordering
   // finds the landmarks as the eliminated set and is reproducible.
   ceres::Solver::Summary summary;
-  if (problem.NumResidualBlocks() > 0) ceres::Solve(solver_options, &problem, &summary);
+  if (problem.NumResidualBlocks() > 0) {
+    term_costs(stats.initial_term_costs);
+    ceres::Solve(solver_options, &problem, &summary);
+    term_costs(stats.final_term_costs);
+  }
   const auto solve_done = std::chrono::steady_clock::now();
 
   // --- Outputs.
@@ -360,7 +407,10 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
       Rigid3d pose;
       if (active[s]) {
         pose = poses[s][f].pose();
-      } else {  // single-camera mode: the other cameras follow the estimated rotation (Eq. 2 model)
+      } else if (use_regularisation) {  // single-camera mode: the other cameras follow the Eq. 2 model
+        const double a = interpolate(ref_times, alpha[ref], scan.frames[s][f].timestamp);
+        pose = axis.pose() * axis_rotation(a) * axis.pose().inverse() * rig.pose() * trajectory.ref_from_cam[s];
+      } else {  // ... or, without Eq. 2, the rotation about the fitted axis
         const double a = interpolate(ref_times, ref_alpha, scan.frames[s][f].timestamp);
         pose = trajectory.world_from_axis * axis_rotation(a) * trajectory.world_from_axis.inverse() * trajectory.ref_from_cam[s];
       }
@@ -427,6 +477,7 @@ std::string tracking_stats_json(const TrackingStats& s) {
                       {"iterations", s.iterations},
                       {"initial_cost", s.initial_cost},
                       {"final_cost", s.final_cost},
+                      {"term_costs", {{"initial", s.initial_term_costs}, {"final", s.final_term_costs}}},
                       {"converged", s.converged},
                       {"termination", s.termination},
                       {"linear_solver", s.linear_solver},

@@ -69,23 +69,28 @@ struct ObservationCost {
   double u_, v_, d_, fx_, fy_, cx_, cy_, sigma_px_, sigma_d_;
 };
 
-// Eq. 2: pose regularisation. E = T_ci^-1 * T_u * R(alpha_ci) * T_u^-1 * T_c, residual =
+// Eq. 2: pose regularisation. E = T_ci^-1 * T_u * R(alpha_ci) * T_u^-1 * T_r * T_c, residual =
 // (translation(E) / sigma_t, rotation_vector(E) / sigma_r) (the linearisation of E into 6 numbers).
+// T_r (world_from_rig) is the reference camera's pose at alpha = 0 without wobble: the paper's
+// Eq. 2 has T_r = I, i.e. the rig frame is the fixed first frame of the reference camera, wobble
+// included; see tracking.h for why it is a free variable here.
 struct RegularisationCost {
   RegularisationCost(double sigma_t, double sigma_r) : sigma_t_(sigma_t), sigma_r_(sigma_r) {}
 
   template <typename T>
   bool operator()(const T* q_world_from_cam, const T* t_world_from_cam, const T* alpha, const T* q_world_from_axis,
-                  const T* t_world_from_axis, const T* q_ref_from_cam, const T* t_ref_from_cam, T* residual) const {
+                  const T* t_world_from_axis, const T* q_world_from_rig, const T* t_world_from_rig,
+                  const T* q_ref_from_cam, const T* t_ref_from_cam, T* residual) const {
     const T half = alpha[0] * T(0.5);
     const T q_rotation[4] = {cos(half), T(0), T(0), sin(half)};
     const T t_zero[3] = {T(0), T(0), T(0)};
     T q_axis_from_world[4], t_axis_from_world[3];
     invert(q_world_from_axis, t_world_from_axis, q_axis_from_world, t_axis_from_world);
-    T q_a[4], t_a[3], q_b[4], t_b[3], q_c[4], t_c[3];
+    T q_a[4], t_a[3], q_b[4], t_b[3], q_r[4], t_r[3], q_c[4], t_c[3];
     compose(q_world_from_axis, t_world_from_axis, q_rotation, t_zero, q_a, t_a);  // T_u R(alpha)
     compose(q_a, t_a, q_axis_from_world, t_axis_from_world, q_b, t_b);           // ... T_u^-1
-    compose(q_b, t_b, q_ref_from_cam, t_ref_from_cam, q_c, t_c);                 // ... T_c (expected world_from_cam)
+    compose(q_b, t_b, q_world_from_rig, t_world_from_rig, q_r, t_r);             // ... T_r
+    compose(q_r, t_r, q_ref_from_cam, t_ref_from_cam, q_c, t_c);                 // ... T_c (expected world_from_cam)
     T q_cam_from_world[4], t_cam_from_world[3];
     invert(q_world_from_cam, t_world_from_cam, q_cam_from_world, t_cam_from_world);
     T q_error[4], t_error[3];
@@ -100,7 +105,7 @@ struct RegularisationCost {
   }
 
   static ceres::CostFunction* create(double sigma_t, double sigma_r) {
-    return new ceres::AutoDiffCostFunction<RegularisationCost, 6, 4, 3, 1, 4, 3, 4, 3>(
+    return new ceres::AutoDiffCostFunction<RegularisationCost, 6, 4, 3, 1, 4, 3, 4, 3, 4, 3>(
         new RegularisationCost(sigma_t, sigma_r));
   }
 
