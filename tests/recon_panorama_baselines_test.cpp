@@ -172,7 +172,7 @@ TEST(Table3, FusionMethodsOnBuiltinScans) {
       FusionOptions fusion;
       fusion.method = method;
       // TABLE3_LAMBDA_PERCENT: lambda as a percentage of the (resolution-scaled) default.
-      fusion.lambda = fusion.effective_lambda(height) * env_int("TABLE3_LAMBDA_PERCENT", 100) / 100.0;
+      fusion.lambda_scale = env_int("TABLE3_LAMBDA_PERCENT", 100) / 100.0;
       const auto t1 = std::chrono::steady_clock::now();
       const Panorama p = fuse(m, fusion);
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();

@@ -58,16 +58,23 @@ struct DepthProblem {
 
   // Per-unknown partial derivatives of the smoothness term anchored at that unknown, by role.
   mutable std::vector<double> g_anchor, g_left, g_right, g_up, g_down, g_data;
-  // Diagonal of the data term's Hessian at the last evaluate(x, grad): the L-BFGS preconditioner.
+  mutable std::vector<double> h_anchor, h_left, h_right, h_up, h_down;
+  // Diagonal curvature estimate at the last evaluate(x, grad): data term's Hessian diagonal plus
+  // lambda times the smoothness term's (majorised) diagonal; the L-BFGS preconditioner.
   mutable std::vector<double> data_curvature;
 
   std::size_t size() const { return pixel.size(); }
 
   // Value and partials of the smoothness term anchored at unknown i (lambda not applied).
   // Returns {smoothed, exact}.
+  // h_*: a positive curvature estimate of the term along each unknown (IRLS majoriser for the
+  // norms, Gauss-Newton for TP's squared norms), gathered into the solver's diagonal preconditioner.
   std::pair<double, double> smoothness_term(const std::vector<double>& x, std::size_t i, double* d_anchor,
-                                            double* d_left, double* d_right, double* d_up, double* d_down) const {
+                                            double* d_left, double* d_right, double* d_up, double* d_down,
+                                            double* h_anchor, double* h_left, double* h_right, double* h_up,
+                                            double* h_down) const {
     *d_anchor = *d_left = *d_right = *d_up = *d_down = 0.0;
+    *h_anchor = *h_left = *h_right = *h_up = *h_down = 0.0;
     const int l = left[i], r = right[i], u = up[i], d = down[i];
     switch (method) {
       case DepthFusionMethod::kAverage:
@@ -86,6 +93,9 @@ struct DepthProblem {
         *d_anchor = (dl + du) / s * scale(int(i));
         if (l >= 0) *d_left = -dl / s * scale(l);
         if (u >= 0) *d_up = -du / s * scale(u);
+        *h_anchor = ((l >= 0) + (u >= 0)) * scale(int(i)) * scale(int(i)) / s;
+        if (l >= 0) *h_left = scale(l) * scale(l) / s;
+        if (u >= 0) *h_up = scale(u) * scale(u) / s;
         return {s - tv_eps, std::sqrt(norm2)};
       }
       case DepthFusionMethod::kTsa: {
@@ -102,13 +112,17 @@ struct DepthProblem {
         *d_anchor = (grad_a + grad_b).dot(ray[i]);
         *d_left = -grad_a.dot(ray[std::size_t(l)]);
         *d_up = -grad_b.dot(ray[std::size_t(u)]);
+        *h_anchor = ray[i].cross(b - a).squaredNorm() / s;
+        *h_left = ray[std::size_t(l)].cross(b).squaredNorm() / s;
+        *h_up = ray[std::size_t(u)].cross(a).squaredNorm() / s;
         return {s - tsa_eps, std::sqrt(norm2)};
       }
       case DepthFusionMethod::kTp: {
         // Eq. 7: |dP_-phi x dP_+phi|^2 + |dP_-theta x dP_+theta|^2.
         const Eigen::Vector3d pi = x[i] * ray[i];
         double value = 0.0;
-        auto pair_term = [&](int before, int after, double* d_before, double* d_after) {
+        auto pair_term = [&](int before, int after, double* d_before, double* d_after, double* h_before,
+                             double* h_after) {
           if (before < 0 || after < 0) return;
           const Eigen::Vector3d a = pi - x[std::size_t(before)] * ray[std::size_t(before)];
           const Eigen::Vector3d b = x[std::size_t(after)] * ray[std::size_t(after)] - pi;
@@ -119,9 +133,13 @@ struct DepthProblem {
           *d_anchor += (grad_a - grad_b).dot(ray[i]);
           *d_before += -grad_a.dot(ray[std::size_t(before)]);
           *d_after += grad_b.dot(ray[std::size_t(after)]);
+          // Gauss-Newton: 2 |dc/dx|^2, c is linear in each depth.
+          *h_anchor += 2.0 * ray[i].cross(a + b).squaredNorm();
+          *h_before += 2.0 * ray[std::size_t(before)].cross(b).squaredNorm();
+          *h_after += 2.0 * a.cross(ray[std::size_t(after)]).squaredNorm();
         };
-        pair_term(l, r, d_left, d_right);
-        pair_term(u, d, d_up, d_down);
+        pair_term(l, r, d_left, d_right, h_left, h_right);
+        pair_term(u, d, d_up, d_down, h_up, h_down);
         return {value, value};
       }
     }
@@ -150,7 +168,8 @@ struct DepthProblem {
         g_data[i] = g;
         if (grad) data_curvature[i] = h;
         const auto [smoothed, exact] =
-            smoothness_term(x, i, &g_anchor[i], &g_left[i], &g_right[i], &g_up[i], &g_down[i]);
+            smoothness_term(x, i, &g_anchor[i], &g_left[i], &g_right[i], &g_up[i], &g_down[i], &h_anchor[i],
+                            &h_left[i], &h_right[i], &h_up[i], &h_down[i]);
         sum.smoothed += lambda * smoothed;
         sum.smoothness += exact;
       }
@@ -166,21 +185,23 @@ struct DepthProblem {
       grad->resize(n);
       // Gather: unknown i is the left neighbour of right[i], the upper neighbour of down[i], ...
       tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
-        double g = g_anchor[i];
-        if (right[i] >= 0) g += g_left[std::size_t(right[i])];
-        if (left[i] >= 0) g += g_right[std::size_t(left[i])];
-        if (down[i] >= 0) g += g_up[std::size_t(down[i])];
-        if (up[i] >= 0) g += g_down[std::size_t(up[i])];
+        double g = g_anchor[i], h = h_anchor[i];
+        if (right[i] >= 0) g += g_left[std::size_t(right[i])], h += h_left[std::size_t(right[i])];
+        if (left[i] >= 0) g += g_right[std::size_t(left[i])], h += h_right[std::size_t(left[i])];
+        if (down[i] >= 0) g += g_up[std::size_t(down[i])], h += h_up[std::size_t(down[i])];
+        if (up[i] >= 0) g += g_down[std::size_t(up[i])], h += h_down[std::size_t(up[i])];
         (*grad)[i] = g_data[i] + lambda * g;
+        data_curvature[i] += lambda * h;
       });
     }
     return total;
   }
 };
 
-EnergyRecord record(int iteration, const DepthProblem::Parts& parts, double lambda) {
+EnergyRecord record(int iteration, const DepthProblem::Parts& parts, double lambda, double data_eps) {
   EnergyRecord r;
   r.iteration = iteration;
+  r.data_epsilon_m = data_eps;
   r.smoothed = parts.smoothed;
   r.data = parts.data;
   r.smoothness = parts.smoothness;
@@ -190,17 +211,19 @@ EnergyRecord record(int iteration, const DepthProblem::Parts& parts, double lamb
 
 // Limited-memory BFGS (two-loop recursion) with Armijo backtracking; the smoothed energy never
 // increases. Returns the energy log (iteration 0 = the start).
-std::vector<EnergyRecord> minimise_lbfgs(const DepthProblem& problem, std::vector<double>& x,
-                                         const FusionOptions& options) {
-  std::vector<EnergyRecord> log;
+// One stage at the problem's current data_eps, at most max_iterations; appends to log (the start
+// record only when the log is empty).
+void minimise_lbfgs(const DepthProblem& problem, std::vector<double>& x, const FusionOptions& options,
+                    int max_iterations, std::vector<EnergyRecord>& log) {
   std::vector<double> g, g_new, x_new, direction(x.size());
   DepthProblem::Parts parts = problem.evaluate(x, &g);
-  log.push_back(record(0, parts, problem.lambda));
+  const int first = log.empty() ? 0 : log.back().iteration;
+  if (log.empty()) log.push_back(record(0, parts, problem.lambda, problem.data_eps));
   std::deque<std::pair<std::vector<double>, std::vector<double>>> memory;  // (s, y)
   std::deque<double> rho;
   const std::size_t n = x.size();
   int small_steps = 0;
-  for (int iteration = 1; iteration <= options.iterations; ++iteration) {
+  for (int iteration = first + 1; iteration <= first + max_iterations; ++iteration) {
     // Two-loop recursion: direction = -H g.
     std::vector<double> q = g;
     std::vector<double> alpha(memory.size());
@@ -274,11 +297,10 @@ std::vector<EnergyRecord> minimise_lbfgs(const DepthProblem& problem, std::vecto
     x.swap(x_new);
     g.swap(g_new);
     parts = new_parts;
-    log.push_back(record(iteration, parts, problem.lambda));
+    log.push_back(record(iteration, parts, problem.lambda, problem.data_eps));
     small_steps = decrease <= options.relative_tolerance * std::abs(parts.smoothed) ? small_steps + 1 : 0;
     if (small_steps >= 5) break;
   }
-  return log;
 }
 
 }  // namespace
@@ -314,15 +336,21 @@ double FusionOptions::default_lambda(DepthFusionMethod method) {
   return 0.0;
 }
 
-double FusionOptions::effective_lambda(int height) const {
+double FusionOptions::effective_lambda(int height, double mean_count) const {
   if (lambda >= 0) return lambda;
-  const double ratio = double(height) / double(lambda_reference_height);
+  // The balance data / (lambda * smoothness) per pixel goes as mean_count * H^k / lambda (README,
+  // "lambda_b"): the data term sums one residual per measurement, and the smoothness term shrinks as
+  // (pixel spacing)^k, k = 1 (TV: one length along the surface), 2 (TSA: an area; TP: two lengths
+  // along the surface times two noise offsets across it). Keeping the paper's balance means scaling
+  // its lambda by both.
+  const double resolution = double(height) / double(lambda_reference_height);
+  const double count = mean_count > 0 ? mean_count / lambda_reference_count : 1.0;
   switch (method) {
     case DepthFusionMethod::kAverage: return 0.0;
     case DepthFusionMethod::kTvCylindrical:
-    case DepthFusionMethod::kTvRadial: return default_lambda(method) * ratio;
-    case DepthFusionMethod::kTsa: return default_lambda(method) * ratio * ratio;
-    case DepthFusionMethod::kTp: return default_lambda(method) * std::pow(ratio, 4);
+    case DepthFusionMethod::kTvRadial: return lambda_scale * default_lambda(method) * resolution * count;
+    case DepthFusionMethod::kTsa:
+    case DepthFusionMethod::kTp: return lambda_scale * default_lambda(method) * resolution * resolution * count;
   }
   return 0.0;
 }
@@ -332,9 +360,15 @@ void FusionOptions::check(const std::string& origin) const {
   if (iterations < 0 || iterations > 100000) throw make_error(origin, "panorama.iterations", "must be in [0, 100000]");
   if (lbfgs_memory < 1 || lbfgs_memory > 50) throw make_error(origin, "panorama.lbfgs_memory", "must be in [1, 50]");
   if (!(data_epsilon_m > 0)) throw make_error(origin, "panorama.data_epsilon_m", "must be > 0");
+  if (!(data_epsilon_final_m > 0) || data_epsilon_final_m > data_epsilon_m)
+    throw make_error(origin, "panorama.data_epsilon_final_m", "must be > 0 and at most panorama.data_epsilon_m");
   if (!(tv_epsilon_m > 0) || !(tsa_epsilon_m2 > 0)) throw make_error(origin, "panorama.epsilon", "must be > 0");
   if (!(relative_tolerance >= 0)) throw make_error(origin, "panorama.tolerance", "must be >= 0");
+  if (!(max_coupled_depth_jump_m >= 0)) throw make_error(origin, "panorama.max_coupled_depth_jump_m", "must be >= 0");
   if (!(max_sigma_m > 0)) throw make_error(origin, "panorama.max_sigma_m", "must be > 0");
+  if (!(lambda_reference_count > 0) || !std::isfinite(lambda_reference_count))
+    throw make_error(origin, "panorama.lambda_reference_count", "must be > 0");
+  if (!(lambda_scale >= 0) || !std::isfinite(lambda_scale)) throw make_error(origin, "panorama.lambda_scale", "must be >= 0");
   if (lambda_reference_height < 1) throw make_error(origin, "panorama.lambda_reference_height", "must be >= 1");
 }
 
@@ -348,7 +382,10 @@ Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
   out.pano = m.pano;
   out.world_from_pano = m.world_from_pano;
   out.method = to_string(options.method);
-  out.lambda = options.effective_lambda(height);
+  std::size_t measured = 0;
+  for (std::size_t p = 0; p < pixels; ++p) measured += m.count(p) > 0;
+  out.mean_count = measured > 0 ? double(m.samples.size()) / double(measured) : 0.0;
+  out.lambda = options.effective_lambda(height, out.mean_count);
   out.colour = ImageF32(width, height, 3, 0.f);
   out.depth = ImageF32(width, height, 1, 0.f);
   out.variance = ImageF32(width, height, 1, 0.f);
@@ -376,7 +413,8 @@ Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
   problem.right.resize(n);
   problem.up.resize(n);
   problem.down.resize(n);
-  for (auto* g : {&problem.data_curvature, &problem.g_anchor, &problem.g_left, &problem.g_right, &problem.g_up, &problem.g_down, &problem.g_data})
+  for (auto* g : {&problem.data_curvature, &problem.g_anchor, &problem.g_left, &problem.g_right, &problem.g_up, &problem.g_down, &problem.g_data,
+                 &problem.h_anchor, &problem.h_left, &problem.h_right, &problem.h_up, &problem.h_down})
     g->assign(n, 0.0);
   std::vector<double> x(n, 0.0);
   tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
@@ -403,8 +441,35 @@ Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
       x[i] = radial[radial.size() / 2];
     }
   });
+  // Neighbours across a depth discontinuity are not coupled: two adjacent pixels whose starting
+  // (median) depths differ by more than lambda_a belong to different surfaces, the same rule that
+  // keeps the warping mesh from bridging them (§4.2). Symmetric in the pair, so left/right and
+  // up/down stay consistent.
+  if (options.max_coupled_depth_jump_m > 0) {
+    const double jump = options.max_coupled_depth_jump_m;
+    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
+      for (int* nb : {&problem.left[i], &problem.right[i], &problem.up[i], &problem.down[i]})
+        if (*nb >= 0 && std::abs(x[i] - x[std::size_t(*nb)]) > jump) *nb = -1;
+    });
+  }
   if (options.method != DepthFusionMethod::kAverage && n > 0) {
-    out.energy = minimise_lbfgs(problem, x, options);
+    // Continuation in the data term's smoothing: a wide eps first (well conditioned: moves the
+    // pixels that need to move), then eps / 4 per stage down to data_epsilon_final_m, so that the
+    // final solve is close to the exact L1 of Eq. 5 (whose energy is the one reported). Each
+    // stage gets an equal share of the iteration budget and stops early when converged.
+    std::vector<double> stages;
+    for (double eps = options.data_epsilon_m; ; eps /= 4) {
+      stages.push_back(std::max(eps, options.data_epsilon_final_m));
+      if (eps <= options.data_epsilon_final_m) break;
+    }
+    int budget = options.iterations;
+    for (std::size_t k = 0; k < stages.size(); ++k) {
+      problem.data_eps = stages[k];
+      const int share = budget / int(stages.size() - k);
+      const std::size_t before = out.energy.size();
+      minimise_lbfgs(problem, x, options, share, out.energy);
+      budget -= int(out.energy.size() - std::max<std::size_t>(before, 1));
+    }
     const EnergyRecord& first = out.energy.front();
     const EnergyRecord& last = out.energy.back();
     std::ostringstream msg;

@@ -31,10 +31,17 @@ PanoramaOptions panorama_options_from_config(Config& config) {
   o.fusion.lambda = config.get_double("panorama.lambda", o.fusion.lambda, -1.0, 1e15);
   o.fusion.lambda_reference_height =
       config.get_int("panorama.lambda_reference_height", o.fusion.lambda_reference_height, 1, 1 << 20);
+  o.fusion.lambda_reference_count =
+      config.get_double("panorama.lambda_reference_count", o.fusion.lambda_reference_count, 1e-3, 1e9);
+  o.fusion.lambda_scale = config.get_double("panorama.lambda_scale", o.fusion.lambda_scale, 0.0, 1e9);
   o.fusion.iterations = config.get_int("panorama.iterations", o.fusion.iterations, 0, 100000);
   o.fusion.lbfgs_memory = config.get_int("panorama.lbfgs_memory", o.fusion.lbfgs_memory, 1, 50);
   o.fusion.data_epsilon_m = config.get_double("panorama.data_epsilon_m", o.fusion.data_epsilon_m, 1e-6, 1.0);
+  o.fusion.data_epsilon_final_m =
+      config.get_double("panorama.data_epsilon_final_m", o.fusion.data_epsilon_final_m, 1e-7, 1.0);
   o.fusion.relative_tolerance = config.get_double("panorama.tolerance", o.fusion.relative_tolerance, 0.0, 1.0);
+  o.fusion.max_coupled_depth_jump_m =
+      config.get_double("panorama.max_coupled_depth_jump_m", o.fusion.max_coupled_depth_jump_m, 0.0, 100.0);
   o.fusion.max_sigma_m = config.get_double("panorama.max_sigma_m", o.fusion.max_sigma_m, 1e-6, 100.0);
   o.threads = config.get_int("threads", 0, 0, 1024);
   o.check(config.origin());

@@ -118,7 +118,7 @@ void write_panorama(const fs::path& dir, const Panorama& panorama, bool overwrit
   nlohmann::json energy = nlohmann::json::array();
   for (const EnergyRecord& e : panorama.energy)
     energy.push_back({{"iteration", e.iteration}, {"smoothed", e.smoothed}, {"data", e.data},
-                      {"smoothness", e.smoothness}, {"lambda_smoothness", e.smoothness_weighted}});
+                      {"smoothness", e.smoothness}, {"lambda_smoothness", e.smoothness_weighted}, {"data_epsilon_m", e.data_epsilon_m}});
   j["energy"] = energy;
   write_file_atomic(tmp / "panorama.json", j.dump(1) + "\n");
   out.commit();
@@ -150,6 +150,7 @@ Panorama read_panorama(const fs::path& dir) {
       r.data = e.at("data").get<double>();
       r.smoothness = e.at("smoothness").get<double>();
       r.smoothness_weighted = e.at("lambda_smoothness").get<double>();
+      r.data_epsilon_m = e.value("data_epsilon_m", 0.0);
       p.energy.push_back(r);
     }
   } catch (const nlohmann::json::exception& e) {

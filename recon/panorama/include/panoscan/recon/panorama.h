@@ -100,22 +100,31 @@ struct FusionOptions {
   DepthFusionMethod method = DepthFusionMethod::kTsa;  // panorama.method
   double lambda = -1.0;              // panorama.lambda: lambda_b; < 0 = the paper's default, scaled (above)
   int lambda_reference_height = 1024;  // panorama.lambda_reference_height: H at which the defaults hold
+  // panorama.lambda_reference_count: measurements per pixel at which the defaults hold (the paper's
+  // every-frame scan: 58.6 deg field of view / 0.375 deg per frame = 156 frames see a direction).
+  double lambda_reference_count = 156.0;
+  double lambda_scale = 1.0;         // panorama.lambda_scale: multiplies the default (sweeps; 1 = the paper's balance)
   int iterations = 100;              // panorama.iterations: L-BFGS iterations (max)
   int lbfgs_memory = 5;              // panorama.lbfgs_memory
-  double data_epsilon_m = 0.002;     // panorama.data_epsilon_m: smoothing of |D - z|
+  double data_epsilon_m = 0.002;     // panorama.data_epsilon_m: smoothing of |D - z| (first stage)
+  double data_epsilon_final_m = 1e-4;  // panorama.data_epsilon_final_m: last stage (eps / 4 per stage)
   double tv_epsilon_m = 1e-4;        // smoothing of the TV norm
   double tsa_epsilon_m2 = 1e-7;      // smoothing of the TSA norm
   double relative_tolerance = 1e-7;  // panorama.tolerance: stop when the energy drops by less (relative)
   double max_sigma_m = 0.15;         // panorama.max_sigma_m: flag pixels with sigma_z above
+  // panorama.max_coupled_depth_jump_m: adjacent pixels whose median depths differ by more are not
+  // coupled by the smoothness term (lambda_a, as in the warping; 0 = couple every neighbour).
+  double max_coupled_depth_jump_m = 0.15;
   static double default_lambda(DepthFusionMethod method);  // TV 50, TSA 5e3, TP 2e8, average 0
-  // lambda_b used at panorama height H.
-  double effective_lambda(int height) const;
+  // lambda_b used at panorama height H with mean_count measurements per measured pixel (README).
+  double effective_lambda(int height, double mean_count) const;
   void check(const std::string& origin = "<panorama options>") const;
 };
 
 struct EnergyRecord {
   int iteration = 0;
-  double smoothed = 0.0;  // the objective the solver minimises (never increases)
+  double smoothed = 0.0;  // the objective the solver minimises (never increases within a stage)
+  double data_epsilon_m = 0.0;  // the stage's data-term smoothing (smoothed jumps up when it shrinks)
   double data = 0.0;      // exact data term sum |D - z|
   double smoothness = 0.0;  // exact smoothness term (without lambda)
   double total() const { return data + smoothness_weighted; }
@@ -132,6 +141,7 @@ struct Panorama {
   ImageU8 flagged;    // 1 where sigma_z > max_sigma_m
   std::string method;
   double lambda = 0.0;
+  double mean_count = 0.0;  // measurements per measured pixel (scales the default lambda)
   std::vector<EnergyRecord> energy;  // per iteration (empty for averaging)
   // The panorama's points in the world frame (pixels with depth; flagged ones included unless
   // skip_flagged), with colour and variance.
