@@ -65,6 +65,20 @@ double rmse_mm(const eval::MeshDistance& mesh, const std::vector<Eigen::Vector3d
   return std::sqrt(sum / double(d.size())) * 1e3;
 }
 
+// The largest rotation (deg) and translation (mm) error of estimated poses against the truth, both
+// taken relative to their first pose (the frames are tied there): a note on what the tracker did.
+std::pair<double, double> max_pose_error(const std::vector<StampedPose>& estimated, const std::vector<StampedPose>& truth) {
+  double angle = 0, translation = 0;
+  const Rigid3d estimated_first = estimated.front().world_from_cam.inverse();
+  const Rigid3d truth_first = truth.front().world_from_cam.inverse();
+  for (std::size_t i = 0; i < std::min(estimated.size(), truth.size()); ++i) {
+    const Rigid3d error = (truth_first * truth[i].world_from_cam).inverse() * (estimated_first * estimated[i].world_from_cam);
+    angle = std::max(angle, Eigen::AngleAxisd(error.rotation()).angle() * 180.0 / M_PI);
+    translation = std::max(translation, error.translation().norm() * 1e3);
+  }
+  return {angle, translation};
+}
+
 // The columns: the preset's scans, or the single-scan labels of `only` (pair labels are skipped).
 std::vector<std::string> table1_scans(const TablesOptions& options, const SizePreset& preset) {
   if (options.only.empty()) return preset.scans;
@@ -141,11 +155,13 @@ TableRun run_table1(const TablesOptions& options) {
                 rmse_mm(mesh, fused.surfels.positions, scene_from_tracked));
     }
     const double surfels_s = seconds_since(start);
-    run.notes.push_back(fmt::format("{}: ours tracked {} frames in {:.1f} s ({}), TSDF {:.1f} s ({} vertices), "
-                                    "surfels (4 m + 3 m) {:.1f} s",
+    const auto [ours_angle, ours_translation] = max_pose_error(tracked.trajectory.world_from_cam[std::size_t(reference)],
+                                                               truth.world_from_cam[std::size_t(reference)]);
+    run.notes.push_back(fmt::format("{}: ours tracked {} frames in {:.1f} s ({}; reference camera's largest error "
+                                    "{:.2f} deg, {:.0f} mm), TSDF {:.1f} s ({} vertices), surfels (4 m + 3 m) {:.1f} s",
                                     label, tracked.stats.frames, tracking_s,
-                                    tracked.stats.converged ? "converged" : "NOT converged", tsdf_s,
-                                    ours_tsdf.vertices.size(), surfels_s));
+                                    tracked.stats.converged ? "converged" : "NOT converged", ours_angle, ours_translation,
+                                    tsdf_s, ours_tsdf.vertices.size(), surfels_s));
 
 #ifdef PANOSCAN_TABLE1_PRESTITCHED
     // The pre-stitched baselines: "EX" (calibrated extrinsics) and "GT" (true relative poses).
@@ -163,12 +179,15 @@ TableRun run_table1(const TablesOptions& options) {
       table.set(ground_truth ? kGtStitched : kExStitched, label,
                 rmse_mm(mesh, baseline.tsdf.vertices.positions, scene_from_stitched));
       const PinholeIntrinsics& k = baseline.stitched.intrinsics;
+      const auto [angle, translation] =
+          max_pose_error(baseline.odometry.trajectory.world_from_cam[0], truth.world_from_cam[std::size_t(reference)]);
       run.notes.push_back(fmt::format(
           "{}: {} stitched {} frames of {}x{} (fx {:.1f}, fy {:.1f}; {} camera frames outside the time gap), "
-          "odometry {} failed steps of {}, {:.1f} s in all ({:.1f} s stitching, {:.1f} s odometry)",
+          "odometry {} failed steps of {} (largest error {:.2f} deg, {:.0f} mm), {:.1f} s in all ({:.1f} s "
+          "stitching, {:.1f} s odometry)",
           label, ground_truth ? "GT" : "EX", baseline.stitched.frames, k.width, k.height, k.fx, k.fy,
           baseline.stitched.missing_camera_frames, baseline.odometry.failed_steps,
-          baseline.stitched.frames > 0 ? baseline.stitched.frames - 1 : 0, seconds_since(start),
+          baseline.stitched.frames > 0 ? baseline.stitched.frames - 1 : 0, angle, translation, seconds_since(start),
           baseline.stitched.seconds, baseline.odometry.seconds));
     }
 #else
