@@ -51,6 +51,23 @@ void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std:
     for (const PairEdge& e : result.edges)
       if (e.source == k && e.target == k - 1)
         result.world_from_panorama[k] = result.world_from_panorama[k - 1] * e.registration.target_from_source;
+  // A non-consecutive registration that contradicts the chain (a symmetric room can fool both the
+  // features and the geometry, e.g. a 180-degree turn between diagonal positions) is dropped before
+  // the pose graph, which would otherwise spread its error over every pose.
+  std::vector<PairEdge> kept;
+  for (PairEdge& e : result.edges) {
+    const bool consecutive = e.source == e.target + 1;
+    const EdgeDiscrepancy d = worst_edge_discrepancy(
+        result.world_from_panorama, {{e.source, e.target, e.registration.target_from_source}});
+    if (!consecutive && (d.rotation_deg > options.max_loop_rotation_deg || d.translation_m > options.max_loop_translation_m)) {
+      result.skipped_pairs.push_back(fmt::format("{} -> {}: contradicts the chained registrations by {:.2f} deg, {:.0f} mm",
+                                                 names[e.source], names[e.target], d.rotation_deg, d.translation_m * 1e3));
+      log_warn(fmt::format("skipped: {}", result.skipped_pairs.back()));
+      continue;
+    }
+    kept.push_back(std::move(e));
+  }
+  result.edges = std::move(kept);
   std::vector<PoseGraphEdge> graph_edges;
   for (const PairEdge& e : result.edges) graph_edges.push_back({e.source, e.target, e.registration.target_from_source});
   result.inconsistency_chained = worst_edge_discrepancy(result.world_from_panorama, graph_edges);

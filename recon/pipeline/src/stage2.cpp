@@ -5,6 +5,7 @@
 
 #include "panoscan/core/error.h"
 #include "panoscan/core/config.h"
+#include "panoscan/core/kdtree.h"
 #include "panoscan/recon/point_covariance.h"
 
 namespace panoscan {
@@ -29,6 +30,19 @@ double median_usable_sigma(const Panorama& panorama, const PanoramaCloudOptions&
 }
 
 }  // namespace
+
+double surface_overlap(const RegistrationCloud& source, const RegistrationCloud& target,
+                       const Rigid3d& target_from_source, double max_correspondence_m, double max_plane_distance_m) {
+  if (source.points.empty() || target.normals.size() != target.points.size()) return 0.0;
+  const PointKdTree tree(target.points);
+  std::size_t close = 0;
+  for (const Eigen::Vector3d& p : source.points) {
+    const Eigen::Vector3d q = target_from_source * p;
+    const long j = tree.nearest_within(q, max_correspondence_m);
+    if (j >= 0 && std::abs(target.normals[j].dot(q - target.points[j])) < max_plane_distance_m) ++close;
+  }
+  return double(close) / double(source.points.size());
+}
 
 const char* to_string(DepthCovarianceModel model) {
   switch (model) {
@@ -123,13 +137,15 @@ PairRegistration register_panorama_pair(const Panorama& source, const Panorama& 
     throw make_error(pair, "", e.what());
   }
   result.target_from_source = result.icp.target_from_source;
-  if (result.icp.fitness < options.min_fitness)
+  result.overlap = surface_overlap(source_cloud, target_cloud, result.target_from_source,
+                                   options.icp.max_correspondence_m, options.icp.fitness_distance_m);
+  if (result.overlap < options.min_fitness)
     throw make_error(pair, "registration",
                      "failed: the panoramas do not overlap at the final pose (only " +
-                         std::to_string(int(std::lround(100 * result.icp.fitness))) + "% of the source points within " +
+                         std::to_string(int(std::lround(100 * result.overlap))) + "% of the source points within " +
                          std::to_string(int(std::lround(1000 * options.icp.fitness_distance_m))) +
-                         " mm of the target, minimum " + std::to_string(int(std::lround(100 * options.min_fitness))) +
-                         "%)");
+                         " mm of the target's surface, minimum " +
+                         std::to_string(int(std::lround(100 * options.min_fitness))) + "%)");
   // Verification: the geometry alone cannot tell a wrong local minimum in a box-like room; the
   // feature matches can (a wrong pose explains few of them).
   if (result.guess.inliers >= options.features.min_inliers) {

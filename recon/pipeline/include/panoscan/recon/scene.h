@@ -31,6 +31,11 @@ struct SceneOptions {
   // Pairs of scans registered: consecutive scans (in the order given) must register; every
   // other pair is tried too and used when it succeeds (redundancy for the pose graph).
   bool register_all_pairs = true;
+  // A non-consecutive registration is dropped (listed in skipped_pairs) when it disagrees with the
+  // chained consecutive ones by more than this: drift along a short chain is millimetres and tenths
+  // of a degree, a wrong registration (a symmetric room) metres and tens of degrees.
+  double max_loop_rotation_deg = 5.0;
+  double max_loop_translation_m = 0.1;
 };
 
 struct PairEdge {
@@ -52,9 +57,9 @@ struct SceneResult {
 };
 
 // Stage 2's poses for built panoramas: pairwise registrations (consecutive ones must succeed, the
-// other pairs are used when they do and options.register_all_pairs), poses chained from the first
-// panorama (which stays at its world_from_pano), then the pose graph when the registrations are
-// redundant. Fills edges, skipped_pairs, world_from_panorama, pose_graph_used, the inconsistencies
+// other pairs are used when they do and options.register_all_pairs, and agree with the chain within
+// options.max_loop_*), poses chained from the first panorama (which stays at its world_from_pano),
+// then the pose graph when the registrations are redundant. Fills edges, skipped_pairs, world_from_panorama, pose_graph_used, the inconsistencies
 // and seconds_registration of `result`. Throws Error naming a consecutive pair that fails.
 void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std::vector<std::string>& names,
                               const SceneOptions& options, SceneResult& result);

@@ -50,10 +50,10 @@ struct PairRegistrationOptions {
   // guess; otherwise the registration is reported as failed (an Error).
   double min_consistent_fraction = 0.5;
   double consistency_threshold_m = 0.05;
-  // At the final pose at least this fraction of the source points must lie within
-  // icp.fitness_distance_m of the target; below it the panoramas do not overlap there (an Error).
-  // Registered office pairs reach ~0.9; the living room forced onto the office from the identity
-  // 0.23 (a wrong pose in the same room ~0.5 is caught by the feature check instead).
+  // At the final pose at least this fraction of the source points must have a target point within
+  // icp.max_correspondence_m whose plane lies within icp.fitness_distance_m (surface_overlap); below
+  // it the panoramas do not overlap there (an Error). A plane distance, so that the figure does not
+  // depend on the sampling density. A wrong pose in the same room is caught by the feature check.
   double min_fitness = 0.5;
 };
 
@@ -66,7 +66,13 @@ struct PairRegistration {
   FeatureAlignment guess;  // the ORB guess (also when an initial pose was given: used to verify)
   IcpResult icp;
   int consistent_matches = 0;
+  double overlap = 0.0;  // surface_overlap at the final pose
 };
+
+// The fraction of source points whose nearest target point (within max_correspondence_m, after
+// target_from_source) has its tangent plane within max_plane_distance_m. Needs target normals.
+double surface_overlap(const RegistrationCloud& source, const RegistrationCloud& target,
+                       const Rigid3d& target_from_source, double max_correspondence_m, double max_plane_distance_m);
 
 // Registers `source` onto `target`: the initial pose is `given_initial` if not null, else the ORB
 // guess; then ICP with options.icp; then the result is checked against the feature matches.
