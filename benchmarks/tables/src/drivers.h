@@ -13,9 +13,11 @@ std::vector<TableDriver> all_drivers();
 
 // Declarations of the drivers (e.g. `TableDriver table3_driver();`), in the paper's order:
 TableDriver table1_driver();
+TableDriver table2_driver();
 TableDriver table3_driver();
 TableDriver table4_driver();
 TableDriver table5_driver();
+TableDriver fig8_driver();
 TableDriver table6_driver();
 
 }  // namespace panoscan::tables
