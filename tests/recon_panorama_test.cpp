@@ -560,6 +560,10 @@ TEST(PanoramaExperiment, Balance) {
         std::cout << ", ratio " << p.energy.back().data / p.energy.back().smoothness_weighted << ", iters "
                   << p.energy.size() - 1 << ", E " << p.energy.front().total() << " -> " << p.energy.back().total();
       std::cout << ", " << sec << " s" << std::endl;
+      if (std::getenv("PANO_TRACE"))
+        for (const EnergyRecord& e : p.energy)
+          std::cout << "  " << e.iteration << " eps " << e.data_epsilon_m << " smoothed " << e.smoothed << " exact "
+                    << e.total() << "\n";
     }
   }
 }

@@ -223,9 +223,11 @@ void minimise_lbfgs(const DepthProblem& problem, std::vector<double>& x, const F
   std::deque<double> rho;
   const std::size_t n = x.size();
   int small_steps = 0;
+  std::vector<double> q, h0;
+  std::vector<std::pair<std::vector<double>, std::vector<double>>> spare;
   for (int iteration = first + 1; iteration <= first + max_iterations; ++iteration) {
     // Two-loop recursion: direction = -H g.
-    std::vector<double> q = g;
+    q.assign(g.begin(), g.end());
     std::vector<double> alpha(memory.size());
     for (std::size_t k = memory.size(); k-- > 0;) {
       alpha[k] = rho[k] * dot(memory[k].first, q);
@@ -237,7 +239,7 @@ void minimise_lbfgs(const DepthProblem& problem, std::vector<double>& x, const F
     // pixels whose measurements all lie far from the current depth), scaled by the usual
     // s.y / y.H0.y once curvature pairs exist. The diagonal captures the ill-conditioning of the
     // smoothed L1 term (curvature up to 1/eps per measurement), which a scalar cannot.
-    std::vector<double> h0(n);
+    h0.resize(n);
     tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) { h0[i] = 1.0 / (problem.data_curvature[i] + 1.0); });
     double gamma = 1.0;
     if (!memory.empty()) {
@@ -279,7 +281,15 @@ void minimise_lbfgs(const DepthProblem& problem, std::vector<double>& x, const F
       step *= 0.5;
     }
     if (!accepted) break;
-    std::vector<double> s(n), y(n);
+    // The pair's buffers are recycled from the oldest memory slot (no allocation per iteration).
+    std::vector<double> s, y;
+    if (!spare.empty()) {
+      s = std::move(spare.back().first);
+      y = std::move(spare.back().second);
+      spare.pop_back();
+    }
+    s.resize(n);
+    y.resize(n);
     tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
       s[i] = x_new[i] - x[i];
       y[i] = g_new[i] - g[i];
@@ -289,6 +299,7 @@ void minimise_lbfgs(const DepthProblem& problem, std::vector<double>& x, const F
       memory.emplace_back(std::move(s), std::move(y));
       rho.push_back(1.0 / sy);
       if (int(memory.size()) > options.lbfgs_memory) {
+        spare.push_back(std::move(memory.front()));
         memory.pop_front();
         rho.pop_front();
       }
@@ -299,7 +310,7 @@ void minimise_lbfgs(const DepthProblem& problem, std::vector<double>& x, const F
     parts = new_parts;
     log.push_back(record(iteration, parts, problem.lambda, problem.data_eps));
     small_steps = decrease <= options.relative_tolerance * std::abs(parts.smoothed) ? small_steps + 1 : 0;
-    if (small_steps >= 5) break;
+    if (small_steps >= 3) break;
   }
 }
 
@@ -458,7 +469,7 @@ Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
     // final solve is close to the exact L1 of Eq. 5 (whose energy is the one reported). Each
     // stage gets an equal share of the iteration budget and stops early when converged.
     std::vector<double> stages;
-    for (double eps = options.data_epsilon_m; ; eps /= 4) {
+    for (double eps = options.data_epsilon_m; ; eps /= 5) {
       stages.push_back(std::max(eps, options.data_epsilon_final_m));
       if (eps <= options.data_epsilon_final_m) break;
     }

@@ -107,10 +107,12 @@ struct FusionOptions {
   int iterations = 100;              // panorama.iterations: L-BFGS iterations (max)
   int lbfgs_memory = 5;              // panorama.lbfgs_memory
   double data_epsilon_m = 0.002;     // panorama.data_epsilon_m: smoothing of |D - z| (first stage)
-  double data_epsilon_final_m = 1e-4;  // panorama.data_epsilon_final_m: last stage (eps / 4 per stage)
+  double data_epsilon_final_m = 1e-4;  // panorama.data_epsilon_final_m: last stage (eps / 5 per stage)
   double tv_epsilon_m = 1e-4;        // smoothing of the TV norm
   double tsa_epsilon_m2 = 1e-7;      // smoothing of the TSA norm
-  double relative_tolerance = 1e-7;  // panorama.tolerance: stop when the energy drops by less (relative)
+  // panorama.tolerance: a stage stops after 3 steps in a row that lower its objective by less
+  // (relative); 1e-5 ends each stage once the depths move by well under a millimetre.
+  double relative_tolerance = 1e-5;
   double max_sigma_m = 0.15;         // panorama.max_sigma_m: flag pixels with sigma_z above
   // panorama.max_coupled_depth_jump_m: adjacent pixels whose median depths differ by more are not
   // coupled by the smoothness term (lambda_a, as in the warping; 0 = couple every neighbour).
