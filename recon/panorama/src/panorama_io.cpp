@@ -4,7 +4,9 @@
 #include <fstream>
 #include <sstream>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/pose_json.h"
@@ -30,15 +32,40 @@ void colour_map(double t, std::uint8_t* rgb) {
   for (int c = 0; c < 3; ++c) rgb[c] = std::uint8_t(std::lround(255.0 * ((1 - f) * stops[i][c] + f * stops[i + 1][c])));
 }
 
-// Colour-mapped preview with a legend bar (low value left, high right) under the image.
-ImageU8 preview(const ImageF32& values, const ImageF32& count, double low, double high) {
-  const int legend = std::max(4, values.height / 16);
-  ImageU8 out(values.width, values.height + legend, 3, 0);
+// Colour-mapped preview with a legend under the image: a colour bar (low value left, high right)
+// with five ticks labelled in `unit` (values times unit_scale), and the quantity's name.
+ImageU8 preview(const ImageF32& values, const ImageF32& count, double low, double high, const std::string& name,
+                const std::string& unit, double unit_scale) {
+  const int width = values.width;
+  const double font = std::clamp(width / 1600.0, 0.3, 1.2);
+  const int text_height = int(std::ceil(22 * font)) + 4;
+  const int bar = std::max(4, values.height / 24);
+  const int legend = bar + 2 * text_height + 4;
+  ImageU8 out(width, values.height + legend, 3, 0);
   for (int v = 0; v < values.height; ++v)
-    for (int u = 0; u < values.width; ++u)
+    for (int u = 0; u < width; ++u)
       if (count.at(u, v) > 0) colour_map((values.at(u, v) - low) / std::max(1e-12, high - low), &out.at(u, v, 0));
-  for (int v = values.height + 1; v < out.height; ++v)
-    for (int u = 0; u < values.width; ++u) colour_map(double(u) / std::max(1, values.width - 1), &out.at(u, v, 0));
+  const int bar_top = values.height + 2;
+  for (int v = bar_top; v < bar_top + bar; ++v)
+    for (int u = 0; u < width; ++u) colour_map(double(u) / std::max(1, width - 1), &out.at(u, v, 0));
+  // Text with OpenCV on the same buffer (interleaved RGB rows).
+  cv::Mat canvas(out.height, out.width, CV_8UC3, out.data.data());
+  const cv::Scalar white(255, 255, 255);
+  const int thickness = std::max(1, int(std::lround(font * 1.5)));
+  const int ticks = 4;
+  for (int k = 0; k <= ticks; ++k) {
+    const double t = double(k) / ticks;
+    const int x = std::min(width - 1, int(std::lround(t * (width - 1))));
+    cv::line(canvas, {x, bar_top}, {x, bar_top + bar + 3}, white, 1);
+    const std::string label = fmt::format("{:.3g}", (low + t * (high - low)) * unit_scale);
+    int baseline = 0;
+    const cv::Size size = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, font, thickness, &baseline);
+    const int left = std::clamp(x - size.width / 2, 0, std::max(0, width - size.width));
+    cv::putText(canvas, label, {left, bar_top + bar + 3 + text_height - 4}, cv::FONT_HERSHEY_SIMPLEX, font, white,
+                thickness, cv::LINE_AA);
+  }
+  cv::putText(canvas, name + " (" + unit + ")", {4, out.height - 6}, cv::FONT_HERSHEY_SIMPLEX, font, white, thickness,
+              cv::LINE_AA);
   return out;
 }
 
@@ -89,10 +116,10 @@ void write_panorama(const fs::path& dir, const Panorama& panorama, bool overwrit
     }
   const double depth_high = std::max(0.5, percentile(depths, 0.99));
   const double sigma_high = std::max(1e-3, percentile(sigmas, 0.95));
-  write_png(tmp / "depth.png", preview(panorama.depth, panorama.count, 0.0, depth_high));
+  write_png(tmp / "depth.png", preview(panorama.depth, panorama.count, 0.0, depth_high, "radial depth", "m", 1.0));
   ImageF32 sigma(panorama.variance.width, panorama.variance.height, 1, 0.f);
   for (std::size_t i = 0; i < sigma.data.size(); ++i) sigma.data[i] = std::sqrt(panorama.variance.data[i]);
-  write_png(tmp / "variance.png", preview(sigma, panorama.count, 0.0, sigma_high));
+  write_png(tmp / "variance.png", preview(sigma, panorama.count, 0.0, sigma_high, "sigma_z", "mm", 1e3));
   const PointCloud cloud = panorama.to_point_cloud(false);
   PlyWriteOptions ply;
   ply.comments.push_back("panoscan panorama cloud, method " + panorama.method);
@@ -114,7 +141,7 @@ void write_panorama(const fs::path& dir, const Panorama& panorama, bool overwrit
                 {"variance", "variance.exr (V, m^2)"}, {"count", "count.exr (N)"}, {"flags", "flags.png (255 = sigma_z above limit)"},
                 {"cloud", "cloud.ply (world frame)"}};
   j["legend"] = {{"depth_png_m", {0.0, depth_high}}, {"variance_png_sigma_m", {0.0, sigma_high}},
-                 {"colours", "dark blue (low) -> cyan -> green -> yellow -> red (high); bar under the image"}};
+                 {"colours", "dark blue (low) -> cyan -> green -> yellow -> red (high); bar with labelled ticks under the image"}};
   nlohmann::json energy = nlohmann::json::array();
   for (const EnergyRecord& e : panorama.energy)
     energy.push_back({{"iteration", e.iteration}, {"smoothed", e.smoothed}, {"data", e.data},
