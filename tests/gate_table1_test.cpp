@@ -34,8 +34,9 @@ TEST(GateTable1, OursBeatsThePrestitchedBaselineOnSO1) {
   // The paper's order of the integrations (measured 6.7 <= 7.1 < 37.8 mm).
   EXPECT_LE(surfels3, surfels4 * 1.02);
   EXPECT_LT(surfels4, tsdf);
-  // Ceilings (measured: TSDF 37.8, Surfels-4m 7.1, Surfels-3m 6.7 mm).
-  EXPECT_LT(surfels4, 9.0);
-  EXPECT_LT(surfels3, 8.5);
+  // Ceilings (measured: TSDF 37.8, Surfels-4m 7.1, Surfels-3m 6.7 mm; with the tracking weakened to
+  // BA only (no Eq. 2 / Eq. 3 factors): 39.2, 9.1, 8.2 mm, which these ceilings reject).
+  EXPECT_LT(surfels4, 8.0);
+  EXPECT_LT(surfels3, 7.5);
   EXPECT_LT(tsdf, 45.0);
 }
