@@ -16,6 +16,7 @@
 #include "panoscan/core/log.h"
 #include "panoscan/core/scan.h"
 #include "panoscan/eval/groundtruth.h"
+#include "panoscan/recon/tracking.h"
 #include "panoscan/scenes/scenes.h"
 
 namespace fs = std::filesystem;
@@ -48,13 +49,16 @@ class PanoramaLock {
 
 }  // namespace
 
-Panorama ground_truth_panorama(const std::string& label, const TablesOptions& options) {
+namespace {
+
+Panorama cached_panorama(const std::string& label, const TablesOptions& options, bool tracked) {
   const SizePreset preset = size_preset(options.size);
   const fs::path scan_dir = cached_scan(label, options);
   const fs::path cache = (options.cache.empty() ? options.out / "scans" : options.cache) / "panoramas";
   fs::create_directories(cache);
   // The scan's key (its folder name) names the scan; the rest names what changes the panorama.
-  const std::string key = fmt::format("{}_gt_tsa_H{}", scan_dir.filename().string(), preset.panorama_height);
+  const std::string key = fmt::format("{}_{}_tsa_H{}", scan_dir.filename().string(), tracked ? "tracked" : "gt",
+                                      preset.panorama_height);
   const fs::path dir = cache / key;
   PanoramaLock lock(cache / (key + ".lock"));
   if (fs::exists(dir / "panorama.json")) return read_panorama(dir);
@@ -63,13 +67,32 @@ Panorama ground_truth_panorama(const std::string& label, const TablesOptions& op
   config.set("panorama.method", "tsa");
   if (options.threads > 0) config.set("threads", std::to_string(options.threads));
   const PanoramaOptions panorama_options = panorama_options_from_config(config);
+  const TrackingOptions tracking_options = tracking_options_from_config(config);
   config.check_all_used();
-  log_info(fmt::format("tables: building the ground-truth-pose panorama of {} into {}", label, dir.string()));
+  log_info(fmt::format("tables: building the {}-pose panorama of {} into {}", tracked ? "tracked" : "ground-truth",
+                       label, dir.string()));
   const ScanIndex scan = read_scan_index(scan_dir);
-  const PanoramaResult result =
-      build_panorama(scan, eval::groundtruth_rig_trajectory(scan_dir), panorama_options);
-  write_panorama(dir, result.panorama, false);
-  return result.panorama;
+  const RigTrajectory truth = eval::groundtruth_rig_trajectory(scan_dir);
+  const RigTrajectory trajectory = tracked ? track_scan(scan, tracking_options).trajectory : truth;
+  Panorama panorama = build_panorama(scan, trajectory, panorama_options).panorama;
+  if (tracked) {
+    const int reference = scan.rig.reference_sensor;
+    const Rigid3d scene_from_tracking = truth.world_from_cam[reference].front().world_from_cam *
+                                        trajectory.world_from_cam[reference].front().world_from_cam.inverse();
+    panorama.world_from_pano = scene_from_tracking * panorama.world_from_pano;
+  }
+  write_panorama(dir, panorama, false);
+  return panorama;
+}
+
+}  // namespace
+
+Panorama ground_truth_panorama(const std::string& label, const TablesOptions& options) {
+  return cached_panorama(label, options, false);
+}
+
+Panorama tracked_panorama(const std::string& label, const TablesOptions& options) {
+  return cached_panorama(label, options, true);
 }
 
 std::unique_ptr<eval::MeshDistance> scene_mesh(const std::string& label) {

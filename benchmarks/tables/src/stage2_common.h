@@ -22,6 +22,12 @@ namespace panoscan::tables::stage2 {
 // changes it). Its world_from_pano is in the scene frame.
 Panorama ground_truth_panorama(const std::string& label, const TablesOptions& options);
 
+// The same from tracked poses (`recon track`'s defaults): stage 1 as a user runs it. Its
+// world_from_pano is re-expressed in the scene frame by aligning the tracked reference camera's
+// first frame with the truth (the tracker's gauge), so that it can be compared with the mesh; what
+// remains is the panorama's own tracking error. Cached as <scan key>_tracked_tsa_H<H>.
+Panorama tracked_panorama(const std::string& label, const TablesOptions& options);
+
 // The ground-truth mesh of the scene a label belongs to ("SO-1" -> the office).
 std::unique_ptr<eval::MeshDistance> scene_mesh(const std::string& label);
 
