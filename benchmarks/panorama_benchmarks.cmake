@@ -3,9 +3,9 @@ add_executable(panorama_benchmark panorama_benchmark.cpp)
 target_link_libraries(panorama_benchmark PRIVATE panoscan_recon_panorama panoscan_sim panoscan_scenes panoscan_eval
   TBB::tbb benchmark::benchmark)
 
-# Experiment drivers that live beside the panorama tests (Table 3 first version, lambda sweep):
+# Experiment drivers that live beside the panorama tests (lambda sweep, balance study):
 # the same sources built with PANOSCAN_EXPERIMENTS, not registered with CTest.
-#   build/benchmarks/panorama_experiments --gtest_filter='Table3*:PanoramaExperiment*'
+#   build/benchmarks/panorama_experiments --gtest_filter='PanoramaExperiment*'
 add_executable(panorama_experiments ${CMAKE_SOURCE_DIR}/tests/recon_panorama_test.cpp
                                     ${CMAKE_SOURCE_DIR}/tests/recon_panorama_baselines_test.cpp)
 target_compile_definitions(panorama_experiments PRIVATE PANOSCAN_EXPERIMENTS

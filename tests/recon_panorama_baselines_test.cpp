@@ -1,8 +1,6 @@
-// The TSDF baseline (Tables 1 and 3) and the driver of the first version of Table 3:
-//   build/benchmarks/panorama_experiments --gtest_filter='Table3*'   (built with PANOSCAN_EXPERIMENTS)
-// (environment: TABLE3_WIDTH (640), TABLE3_EVERY (16), TABLE3_HEIGHT (1024) panorama rows,
-// TABLE3_TSDF_VOXEL_MM (5), TABLE3_OFFICE_ONLY (0), TABLE3_LAMBDA_PERCENT (100)). The 5 mm TSDF of a whole room takes ~8 GB and
-// many minutes with Open3D (its coloured voxels hold doubles).
+// The TSDF and surfel baselines (Tables 1 and 3). Table 3 itself: `panoscan tables table3`
+// (benchmarks/tables/src/table3.cpp). The 5 mm TSDF of a whole room takes ~8 GB and many minutes
+// with Open3D (its coloured voxels hold doubles).
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -48,13 +46,6 @@ ScanIndex simulate_small_office_scan(const Scene& scene, const std::filesystem::
   return read_scan_index(dir);
 }
 
-#ifdef PANOSCAN_EXPERIMENTS
-// Settings of the Table 3 driver from the environment.
-int env_int(const char* name, int fallback) {
-  const char* v = std::getenv(name);
-  return v ? std::atoi(v) : fallback;
-}
-#endif
 
 }  // namespace
 
@@ -121,69 +112,3 @@ TEST(SurfelBaseline, OfficeSurfelsAndRaycastAreCloseToTheTruth) {
   EXPECT_LT(rmse_rc, 0.05);
 }
 
-#ifdef PANOSCAN_EXPERIMENTS
-// Built only into benchmarks' panorama_experiments program (not a CTest test): a table driver.
-// First version of the paper's Table 3: RMSE (mm) of each method's cloud against the
-// ground-truth mesh, same (ground-truth) poses, Handa noise. Panorama columns: all pixels / pixels
-// not flagged (sigma_z <= 0.15 m, the §6.3 pre-processing).
-TEST(Table3, FusionMethodsOnBuiltinScans) {
-  const int width = env_int("TABLE3_WIDTH", 640);
-  const int every = env_int("TABLE3_EVERY", 16);
-  const int height = env_int("TABLE3_HEIGHT", 1024);
-  testutil::TempDir tmp("table3");
-  std::cout << "| position | TSDF | Surfels-4m | Surfels-4m (RC) | ERP Ave. | TV-L1 | TV (radial) | TSA-L1 | TP-L1 |\n|---|---|---|---|---|---|---|---|---|\n";
-  std::vector<std::pair<std::string, int>> positions = {{"living_room", 0}, {"office", 0}};
-  if (env_int("TABLE3_OFFICE_ONLY", 0)) positions = {{"office", 0}};
-  for (const auto& [scene_name, position] : positions) {
-    const Scene scene = scenes::make_builtin_scene(scene_name);
-    SimOptions options;
-    options.rig.width = width;
-    options.rig.height = width * 3 / 4;
-    options.output.every = every;
-    options.seed = 1;
-    const auto dir = tmp / (scene_name + std::to_string(position));
-    Simulator(scene, position, options).write_scan(dir, false);
-    const ScanIndex scan = read_scan_index(dir);
-    const RigTrajectory truth = eval::groundtruth_rig_trajectory(dir);
-    const eval::MeshDistance mesh(scene.mesh);
-    std::ostringstream row;
-    row << "| " << scene.positions[std::size_t(position)].name << " | ";
-    TsdfOptions tsdf_options;
-    tsdf_options.voxel_m = env_int("TABLE3_TSDF_VOXEL_MM", 5) * 1e-3;
-    const TsdfResult tsdf = build_tsdf_baseline(scan, truth, tsdf_options);
-    row << std::fixed << std::setprecision(2) << rmse_against_mesh(mesh, tsdf.vertices.positions) * 1e3 << " | ";
-    std::cerr << "TSDF: " << tsdf.memory_bytes / 1048576.0 << " MiB, " << tsdf.integrate_seconds << " s\n";
-    const SurfelResult surfels = build_surfel_baseline(scan, truth, SurfelOptions{});
-    Equirectangular pano;
-    pano.height = height;
-    const ImageF32 rc = raycast_surfels(surfels, truth.world_from_axis, pano);
-    row << rmse_against_mesh(mesh, surfels.surfels.positions) * 1e3 << " | "
-        << rmse_against_mesh(mesh, panorama_points(rc, truth.world_from_axis, pano)) * 1e3 << " | ";
-    std::cerr << "surfels: " << surfels.surfels.size() << ", " << surfels.memory_bytes / 1048576.0 << " MiB, "
-              << surfels.seconds << " s\n";
-    WarpOptions warp;
-    warp.height = height;
-    const auto t0 = std::chrono::steady_clock::now();
-    const PanoramaMeasurements m = warp_frames(scan, truth, warp);
-    std::cerr << "warp: " << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s, "
-              << m.samples.size() << " measurements, " << m.memory_bytes() / 1048576.0 << " MiB\n";
-    for (const auto method : {DepthFusionMethod::kAverage, DepthFusionMethod::kTvCylindrical,
-                              DepthFusionMethod::kTvRadial, DepthFusionMethod::kTsa, DepthFusionMethod::kTp}) {
-      FusionOptions fusion;
-      fusion.method = method;
-      // TABLE3_LAMBDA_PERCENT: lambda as a percentage of the (resolution-scaled) default.
-      fusion.lambda_scale = env_int("TABLE3_LAMBDA_PERCENT", 100) / 100.0;
-      const auto t1 = std::chrono::steady_clock::now();
-      const Panorama p = fuse(m, fusion);
-      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
-      const double rmse = rmse_against_mesh(mesh, p.to_point_cloud().positions);
-      const double rmse_unflagged = rmse_against_mesh(mesh, p.to_point_cloud(true).positions);
-      std::cerr << to_string(method) << ": " << rmse * 1e3 << " mm, " << seconds << " s, "
-                << (p.energy.empty() ? 0.0 : p.energy.back().data / p.energy.back().smoothness_weighted)
-                << " data/smoothness\n";
-      row << rmse * 1e3 << " / " << rmse_unflagged * 1e3 << " | ";
-    }
-    std::cout << row.str() << std::endl;
-  }
-}
-#endif  // PANOSCAN_EXPERIMENTS

@@ -85,17 +85,20 @@ DepthFusionMethod depth_fusion_method_from_string(const std::string& name, const
 //   TV:    sqrt((q_p - q_left)^2 + (q_p - q_up)^2), q = D sin(theta) or D  [m]
 //   TSA:   |(P_p - P_left) x (P_p - P_up)|, P = D * direction(pixel)      [m^2] (Eq. 6)
 //   TP:    |(P_p - P_left) x (P_right - P_p)|^2 + |(P_p - P_up) x (P_down - P_p)|^2  [m^4] (Eq. 7)
-// so lambda_b has units m^0, m^-1 and m^-3 respectively. Per pixel the data term does not depend on
-// the resolution (one sample per covering frame), but the smoothness terms shrink with the pixel
-// spacing: TV ~ 1/H, TSA ~ 1/H^2, TP ~ 1/H^4. The paper's defaults (TV 50, TSA 5e3, TP 2e8) are taken
-// to hold at H = lambda_reference_height (1024, the project's default panorama) and the default
-// lambda is scaled by (H / 1024)^k, k = 1, 2, 4, so that the data/smoothness balance is the same at
-// any resolution (without it, TSA at H = 128 pulls every surface to the centre: its shrinking force
-// per pixel, 2 lambda area / D, exceeds the L1 data term's bounded pull of one per measurement).
-// An explicit lambda is used as given. Solver: L-BFGS on the smoothed energy (|x| -> sqrt(x^2 + eps^2) - eps, with eps
-// below), started from the per-pixel median, Armijo backtracking so the smoothed energy never
-// increases; the exact (unsmoothed) Eq. 5 energy is logged too. Parallel (oneTBB) with fixed-order
-// reductions: deterministic for any thread count.
+// so lambda_b has units m^0, m^-1 and m^-3 respectively. The paper chose its lambdas (TV 50, TSA 5e3,
+// TP 2e8) so that data ~ 4 x lambda x smoothness at the solution. Per pixel the data term grows with
+// the number of measurements and does not depend on the resolution; the smoothness terms shrink with
+// the pixel spacing: TV ~ 1/H, TSA and TP ~ 1/H^2 (TP on noisy planes: two lengths along the surface,
+// two across). The default lambda is the paper's times (H / lambda_reference_height)^k times
+// (mean measurements per measured pixel / lambda_reference_count), the reference being the paper's
+// every-frame panoramas at H = 1024 (recon/panorama/README.md, "lambda_b", has the derivation and the
+// measured balance). An explicit lambda is used as given. Neighbours whose median depths differ by more
+// than max_coupled_depth_jump_m (lambda_a) are not coupled. Solver: L-BFGS on the smoothed energy
+// (|x| -> sqrt(x^2 + eps^2) - eps), started from the per-pixel median, the data eps continued from
+// data_epsilon_m down to data_epsilon_final_m, preconditioned with the diagonal curvature of both terms,
+// Armijo backtracking so the smoothed energy never increases within a stage; the exact (unsmoothed)
+// Eq. 5 energy is logged too. Parallel (oneTBB) with fixed-order reductions: deterministic for any
+// thread count.
 struct FusionOptions {
   DepthFusionMethod method = DepthFusionMethod::kTsa;  // panorama.method
   double lambda = -1.0;              // panorama.lambda: lambda_b; < 0 = the paper's default, scaled (above)
