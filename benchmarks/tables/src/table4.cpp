@@ -186,7 +186,8 @@ void add_table4(const TablesOptions& options, bool tracked, TableRun& run) {
         "Tracked poses: each panorama from `recon track`'s defaults, placed in the scene frame by aligning the tracked "
         "reference camera's first frame with the truth; the target's place in the pair's cloud comes from that "
         "alignment, so the table carries the panoramas' own tracking error (as the paper's "
-        "Table 4 does). The reference row places the source by that alignment too: the registrations beat it.");
+        "Table 4 does). The reference row places the source by that alignment too (both scans' first frames "
+        "aligned with the truth).");
     return;
   }
   for (eval::ResultTable* t : {&rmse, &displacement, &rotation, &translation, &seconds}) run.tables.push_back(*t);
