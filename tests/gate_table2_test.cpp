@@ -1,11 +1,13 @@
 // Gate of the paper's Table 2 (tracking with a single camera) at the quick size on both scans of
 // the preset (office SO-1 and living room SL-1): the factor graph (Eq. 1-3) beats bundle
 // adjustment alone by a clear margin on the stitched ground-truth depth and on the ATE; with the
-// middle camera alone the whole panorama is worse than with the three-camera rig; absolute
+// middle camera alone the whole panorama is worse than with the three-camera rig, and the rig
+// tracks even the middle camera better (the shared wobble of tracking.h); absolute
 // ceilings on the stitched RMSE, the ATE and the rotation axis.
 // Ceilings: the measured value (quick size, Handa noise, seed 1, 2 threads) plus a margin.
-// Checked to fail with Eq. 2 switched off (then "Ours" is bundle adjustment) and with the rig
-// pose T_r held at the identity (the paper's Eq. 2: axis 0.14 / 0.10 deg).
+// Checked to fail with Eq. 2 switched off (then "Ours" is bundle adjustment), with Eq. 3 off
+// (SL-1's rig: 28.6 mm) and with the rig pose T_r held at the identity (the paper's Eq. 2: axis
+// 0.14 / 0.10 deg rig, 0.39 / 0.30 deg single camera).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -37,14 +39,18 @@ TEST(GateTable2, FactorGraphBeatsBundleAdjustmentAndTheRigBeatsOneCamera) {
     // 10.30, 4.28 vs 13.99 mm).
     EXPECT_LT(stitched.get(ours, scan), 0.75 * stitched.get(ba, scan));
     EXPECT_LT(ate.get(ours, scan), 0.6 * ate.get(ba, scan));
-    // One camera cannot see the others' wobble: the whole panorama is worse than the rig's.
-    EXPECT_GT(stitched.get(ours_all, scan), 1.1 * stitched.get(rig_all, scan));
-    // Ceilings (measured: stitched Ours 1.97 / 1.71, rig all 4.33 / 3.65 mm; ATE 4.55 / 4.28 mm;
-    // axis 0.018 / 0.015 deg single camera, 0.019 / 0.012 deg rig).
+    // One camera cannot see the others' wobble: the whole panorama is worse than the rig's
+    // (measured 12.44 vs 5.44, 11.31 vs 4.06 mm), and the rig tracks even the middle camera better
+    // (shared wobble; ATE 2.16 vs 4.55, 2.10 vs 4.28 mm).
+    EXPECT_GT(stitched.get(ours_all, scan), 1.5 * stitched.get(rig_all, scan));
+    EXPECT_LT(ate.get(rig, scan), 0.7 * ate.get(ours, scan));
+    // Ceilings (measured: stitched Ours 1.97 / 1.71, rig middle 1.38 / 1.49, rig all 5.44 / 4.06 mm;
+    // ATE Ours 4.55 / 4.28, rig 2.16 / 2.10 mm; axis 0.018 / 0.015 deg single camera, 0.020 / 0.013 deg rig).
     EXPECT_LT(stitched.get(ours, scan), 3.0);
-    EXPECT_LT(stitched.get(rig_all, scan), 6.0);
+    EXPECT_LT(stitched.get(rig, scan), 2.2);
+    EXPECT_LT(stitched.get(rig_all, scan), 7.0);
     EXPECT_LT(ate.get(ours, scan), 6.5);
-    EXPECT_LT(ate.get(rig, scan), 6.5);
+    EXPECT_LT(ate.get(rig, scan), 3.5);
     EXPECT_LT(axis.get(ours, scan), 0.07);
     EXPECT_LT(axis.get(rig, scan), 0.07);
   }

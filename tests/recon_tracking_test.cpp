@@ -172,9 +172,16 @@ TEST_F(TrackingTest, FullGraphBeatsItsAblationsAndRecoversAxisAndExtrinsics) {
   no_regularisation.pose_regularisation = false;
   const Figures without_eq2 = run(no_regularisation, "without Eq. 2");
 
-  // The full graph beats BA alone and each graph without one of its regularising factors.
-  EXPECT_LT(full.ate_m, 0.7 * ba_only.ate_m);
-  EXPECT_LT(full.ate_m, 0.7 * without_eq2.ate_m);
+  TrackingOptions independent_wobble = test_tracking_options();
+  independent_wobble.shared_wobble = false;
+  const Figures without_shared_wobble = run(independent_wobble, "without shared wobble");
+
+  // The full graph beats BA alone and each graph without one of its regularising factors
+  // (measured ATE: full 1.65, BA only 7.85, without Eq. 2 7.85, without the shared wobble 4.32 mm).
+  EXPECT_LT(full.ate_m, 0.4 * ba_only.ate_m);
+  EXPECT_LT(full.ate_m, 0.4 * without_eq2.ate_m);
+  EXPECT_LT(full.ate_m, 0.6 * without_shared_wobble.ate_m);
+  EXPECT_LT(full.ate_m, 0.003);
   EXPECT_LE(full.ate_m, 1.05 * without_eq3.ate_m);  // Eq. 3 matters where features are missing (below)
   // Axis within 0.25 deg and 5 mm of the truth (issue: 0.5 deg and 1 cm), pose-aligned. Measured
   // 0.12 deg, 1.2 mm (BA only: 0.47 deg, 5.7 mm). (The free rig pose T_r of tracking.h makes no
@@ -357,7 +364,7 @@ TEST(TrackingSynchronisation, UnsynchronizedShuttersAreHandledAsWellAsSynchroniz
   }
   std::printf("ATE: unsynchronized %.2f mm, synchronized %.2f mm\n", ate[0] * 1e3, ate[1] * 1e3);
   EXPECT_GT(ate[1], 0.7 * ate[0]);
-  EXPECT_LT(ate[0], 0.02);
+  EXPECT_LT(ate[0], 0.004);  // measured 2.21 mm (synchronized 2.12 mm)
 }
 
 }  // namespace

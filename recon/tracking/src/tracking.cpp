@@ -37,6 +37,8 @@ void TrackingOptions::check(const std::string& origin) const {
   require(angular_accel_std_deg_s2 > 0, "track.angular_accel_std_deg_s2", "must be > 0");
   require(extrinsics_prior_translation_std_m > 0, "track.extrinsics_prior_translation_std_m", "must be > 0");
   require(extrinsics_prior_rotation_std_deg > 0, "track.extrinsics_prior_rotation_std_deg", "must be > 0");
+  require(wobble_rate_std_deg_s > 0, "track.wobble_rate_std_deg_s", "must be > 0");
+  require(wobble_rate_std_m_s > 0, "track.wobble_rate_std_m_s", "must be > 0");
   require(same_time_s >= 0 && same_time_s < 0.1, "track.same_time_s", "must be in [0, 0.1)");
   require(huber_delta > 0, "track.huber_delta", "must be > 0");
   require(depth_noise_coefficient > 0, "track.depth_noise_coefficient", "must be > 0");
@@ -78,6 +80,10 @@ TrackingOptions tracking_options_from_config(Config& config) {
       config.get_double("track.extrinsics_prior_translation_std_m", o.extrinsics_prior_translation_std_m, 1e-6, 10.0);
   o.extrinsics_prior_rotation_std_deg =
       config.get_double("track.extrinsics_prior_rotation_std_deg", o.extrinsics_prior_rotation_std_deg, 1e-4, 180.0);
+  o.extrinsics_null_prior = config.get_bool("track.extrinsics_null_prior", o.extrinsics_null_prior);
+  o.shared_wobble = config.get_bool("track.shared_wobble", o.shared_wobble);
+  o.wobble_rate_std_deg_s = config.get_double("track.wobble_rate_std_deg_s", o.wobble_rate_std_deg_s, 1e-3, 1e4);
+  o.wobble_rate_std_m_s = config.get_double("track.wobble_rate_std_m_s", o.wobble_rate_std_m_s, 1e-5, 100.0);
   o.same_time_s = config.get_double("track.same_time_s", o.same_time_s, 0.0, 0.099);
   o.huber_delta = config.get_double("track.huber_delta", o.huber_delta, 1e-3, 1e3);
   o.depth_noise_coefficient = config.get_double("track.depth_noise_coefficient", o.depth_noise_coefficient, 1e-6, 1.0);
@@ -246,9 +252,9 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   TrackingStats stats;
   stats.mode = to_string(options.mode);
   // The residual blocks of each kind of factor, for the cost of each term (stats).
-  enum FactorKind { kObservation, kRegularisation, kVelocity, kPriors, kFactorKinds };
+  enum FactorKind { kObservation, kRegularisation, kVelocity, kPriors, kSharedWobble, kFactorKinds };
   std::array<std::vector<ceres::ResidualBlockId>, kFactorKinds> factor_blocks;
-  auto term_costs = [&](std::array<double, 4>& out) {
+  auto term_costs = [&](std::array<double, kFactorKinds>& out) {
     for (int k = 0; k < kFactorKinds; ++k) {
       out[k] = 0;
       if (factor_blocks[k].empty()) continue;
@@ -291,6 +297,37 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
             tf::PosePriorCost::create(extrinsics[s].q, extrinsics[s].t, options.extrinsics_prior_translation_std_m,
                                       deg2rad(options.extrinsics_prior_rotation_std_deg)),
             nullptr, extrinsics[s].q, extrinsics[s].t));
+    // ... and, held firmly, along the two directions nothing else observes (tracking.h).
+    if (options.extrinsics_null_prior)
+      for (int s = 0; s < sensor_count; ++s)
+        if (s != ref && active[s] && options.mode != TrackingMode::kFixedExtrinsics)
+          factor_blocks[kPriors].push_back(problem.AddResidualBlock(
+              tf::ExtrinsicsNullPriorCost::create(extrinsics[s].q, extrinsics[s].t, 1e-4, deg2rad(0.01)), nullptr,
+              extrinsics[s].q, extrinsics[s].t, axis.q, rig.q));
+  }
+
+  // Shared wobble between consecutive frames of different cameras (tracking.h).
+  if (use_regularisation && options.shared_wobble) {
+    struct Node { double t; int s, f; };
+    std::vector<Node> nodes;
+    for (int s = 0; s < sensor_count; ++s)
+      if (active[s])
+        for (std::size_t f = 0; f < poses[s].size(); ++f) nodes.push_back({scan.frames[s][f].timestamp, s, int(f)});
+    std::sort(nodes.begin(), nodes.end(), [](const Node& a, const Node& b) { return a.t != b.t ? a.t < b.t : a.s < b.s; });
+    const double rate_r = deg2rad(options.wobble_rate_std_deg_s), rate_t = options.wobble_rate_std_m_s;
+    constexpr double kFloorS = 1e-3;  // timestamp jitter
+    for (std::size_t k = 0; k + 1 < nodes.size(); ++k) {
+      const Node &a = nodes[k], &b = nodes[k + 1];
+      const double dt = std::max(b.t - a.t, 0.0) + kFloorS;
+      if (a.s == b.s || rate_r * dt >= sigma_r) continue;
+      PoseBlock& extr_a = a.s == ref ? identity : extrinsics[a.s];
+      PoseBlock& extr_b = b.s == ref ? identity : extrinsics[b.s];
+      factor_blocks[kSharedWobble].push_back(problem.AddResidualBlock(
+          tf::SharedWobbleCost::create(rate_t * dt, rate_r * dt), nullptr, poses[a.s][a.f].q, poses[a.s][a.f].t,
+          &alpha[a.s][a.f], extr_a.q, extr_a.t, poses[b.s][b.f].q, poses[b.s][b.f].t, &alpha[b.s][b.f], extr_b.q,
+          extr_b.t, axis.q, axis.t, rig.q, rig.t));
+      ++stats.shared_wobble_links;
+    }
   }
 
   // Eq. 3: velocity smoothness over all frames of all cameras in timestamp order.
@@ -477,7 +514,9 @@ std::string tracking_stats_json(const TrackingStats& s) {
                       {"iterations", s.iterations},
                       {"initial_cost", s.initial_cost},
                       {"final_cost", s.final_cost},
-                      {"term_costs", {{"initial", s.initial_term_costs}, {"final", s.final_term_costs}}},
+                      {"term_costs", {{"order", {"observation", "regularisation", "velocity", "priors", "shared_wobble"}},
+                                      {"initial", s.initial_term_costs}, {"final", s.final_term_costs}}},
+                      {"shared_wobble_links", s.shared_wobble_links},
                       {"converged", s.converged},
                       {"termination", s.termination},
                       {"linear_solver", s.linear_solver},

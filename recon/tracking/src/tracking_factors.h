@@ -112,6 +112,97 @@ struct RegularisationCost {
   double sigma_t_, sigma_r_;
 };
 
+// The rig's wobble is shared (beyond the paper): W = (T_u R(alpha) T_u^-1 T_r)^-1 T_ci T_c^-1 is the
+// rig's deviation from the rigid rotation at the time of frame ci (in the rig frame). Two frames of
+// different cameras taken dt apart see nearly the same W; residual = (translation, rotation vector)
+// of W_a^-1 W_b over (sigma_t, sigma_r), the wobble's change over dt. It ties each T_c to the
+// reference camera in all six directions, which Eq. 2 with independent deviations cannot.
+struct SharedWobbleCost {
+  SharedWobbleCost(double sigma_t, double sigma_r) : sigma_t_(sigma_t), sigma_r_(sigma_r) {}
+
+  // world_from_rig as the frame sees it (T_ci T_c^-1) and as the model has it (T_u R T_u^-1 T_r):
+  // returns rig_model_from_rig_actual.
+  template <typename T>
+  static void wobble(const T* q_cam, const T* t_cam, const T* alpha, const T* q_axis, const T* t_axis, const T* q_rig,
+                     const T* t_rig, const T* q_extr, const T* t_extr, T* q_out, T* t_out) {
+    const T half = alpha[0] * T(0.5);
+    const T q_rotation[4] = {cos(half), T(0), T(0), sin(half)};
+    const T t_zero[3] = {T(0), T(0), T(0)};
+    T q_axis_inv[4], t_axis_inv[3], q_a[4], t_a[3], q_b[4], t_b[3], q_m[4], t_m[3];
+    invert(q_axis, t_axis, q_axis_inv, t_axis_inv);
+    compose(q_axis, t_axis, q_rotation, t_zero, q_a, t_a);
+    compose(q_a, t_a, q_axis_inv, t_axis_inv, q_b, t_b);
+    compose(q_b, t_b, q_rig, t_rig, q_m, t_m);  // model world_from_rig
+    T q_extr_inv[4], t_extr_inv[3], q_actual[4], t_actual[3], q_m_inv[4], t_m_inv[3];
+    invert(q_extr, t_extr, q_extr_inv, t_extr_inv);
+    compose(q_cam, t_cam, q_extr_inv, t_extr_inv, q_actual, t_actual);  // actual world_from_rig
+    invert(q_m, t_m, q_m_inv, t_m_inv);
+    compose(q_m_inv, t_m_inv, q_actual, t_actual, q_out, t_out);
+  }
+
+  template <typename T>
+  bool operator()(const T* q_cam_a, const T* t_cam_a, const T* alpha_a, const T* q_extr_a, const T* t_extr_a,
+                  const T* q_cam_b, const T* t_cam_b, const T* alpha_b, const T* q_extr_b, const T* t_extr_b,
+                  const T* q_axis, const T* t_axis, const T* q_rig, const T* t_rig, T* residual) const {
+    T q_wa[4], t_wa[3], q_wb[4], t_wb[3], q_wa_inv[4], t_wa_inv[3], q_e[4], t_e[3];
+    wobble(q_cam_a, t_cam_a, alpha_a, q_axis, t_axis, q_rig, t_rig, q_extr_a, t_extr_a, q_wa, t_wa);
+    wobble(q_cam_b, t_cam_b, alpha_b, q_axis, t_axis, q_rig, t_rig, q_extr_b, t_extr_b, q_wb, t_wb);
+    invert(q_wa, t_wa, q_wa_inv, t_wa_inv);
+    compose(q_wa_inv, t_wa_inv, q_wb, t_wb, q_e, t_e);
+    T rotation_vector[3];
+    ceres::QuaternionToAngleAxis(q_e, rotation_vector);
+    for (int k = 0; k < 3; ++k) {
+      residual[k] = t_e[k] / sigma_t_;
+      residual[3 + k] = rotation_vector[k] / sigma_r_;
+    }
+    return true;
+  }
+
+  static ceres::CostFunction* create(double sigma_t, double sigma_r) {
+    return new ceres::AutoDiffCostFunction<SharedWobbleCost, 6, 4, 3, 1, 4, 3, 4, 3, 1, 4, 3, 4, 3, 4, 3>(
+        new SharedWobbleCost(sigma_t, sigma_r));
+  }
+
+  double sigma_t_, sigma_r_;
+};
+
+// The calibration along the two directions of T_c that no factor observes without cross-camera
+// landmarks (rotation about and sliding along the axis, expressed in the rig frame): residual =
+// (axis . translation(prior^-1 T_c) / sigma_t, axis . rotation_vector(prior^-1 T_c) / sigma_r),
+// axis = R_r^T R_u e_z (the rotation axis in the reference camera's frame).
+struct ExtrinsicsNullPriorCost {
+  ExtrinsicsNullPriorCost(const double* q_prior, const double* t_prior, double sigma_t, double sigma_r)
+      : sigma_t_(sigma_t), sigma_r_(sigma_r) {
+    for (int k = 0; k < 4; ++k) q_prior_inverse_[k] = k == 0 ? q_prior[0] : -q_prior[k];
+    for (int k = 0; k < 3; ++k) t_prior_[k] = t_prior[k];
+  }
+  template <typename T>
+  bool operator()(const T* q, const T* t, const T* q_axis, const T* q_rig, T* residual) const {
+    const T q_inv[4] = {T(q_prior_inverse_[0]), T(q_prior_inverse_[1]), T(q_prior_inverse_[2]), T(q_prior_inverse_[3])};
+    T q_error[4], rotation_vector[3];
+    ceres::QuaternionProduct(q_inv, q, q_error);
+    ceres::QuaternionToAngleAxis(q_error, rotation_vector);
+    const T z[3] = {T(0), T(0), T(1)};
+    T axis_world[3], axis_rig[3];
+    ceres::QuaternionRotatePoint(q_axis, z, axis_world);
+    const T q_rig_inv[4] = {q_rig[0], -q_rig[1], -q_rig[2], -q_rig[3]};
+    ceres::QuaternionRotatePoint(q_rig_inv, axis_world, axis_rig);
+    T along_t = T(0), along_r = T(0);
+    for (int k = 0; k < 3; ++k) {
+      along_t += axis_rig[k] * (t[k] - T(t_prior_[k]));
+      along_r += axis_rig[k] * rotation_vector[k];
+    }
+    residual[0] = along_t / sigma_t_;
+    residual[1] = along_r / sigma_r_;
+    return true;
+  }
+  static ceres::CostFunction* create(const double* q_prior, const double* t_prior, double sigma_t, double sigma_r) {
+    return new ceres::AutoDiffCostFunction<ExtrinsicsNullPriorCost, 2, 4, 3, 4, 4>(
+        new ExtrinsicsNullPriorCost(q_prior, t_prior, sigma_t, sigma_r));
+  }
+  double q_prior_inverse_[4], t_prior_[3], sigma_t_, sigma_r_;
+};
+
 // Eq. 3: velocity smoothness between three consecutive azimuth nodes (timestamp order, all
 // cameras): v_{i,j} = (alpha_i - alpha_j) / (t_i - t_j); residual (v_{i,i+1} - v_{i-1,i}) / sigma.
 // Linear, so its Jacobian is constant.
