@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
@@ -46,8 +48,13 @@ void add_sim_options(CLI::App* cmd, SimArguments& a, bool with_scene) {
 
 int main(int argc, char** argv) {
   // Open3D's OpenMP threads spin while idle and starve oneTBB's on 2 cores (measured ~40x slower
-  // TSDF integration); a passive wait policy must be set before the OpenMP runtime starts.
-  ::setenv("OMP_WAIT_POLICY", "PASSIVE", 0);
+  // TSDF integration, 7x slower RGB-D odometry). libgomp reads OMP_WAIT_POLICY when it is loaded,
+  // before main, so setting it here is too late: set it and re-execute once (a user's own
+  // setting is kept). If the re-execution fails, carry on with the spinning policy.
+  if (std::getenv("OMP_WAIT_POLICY") == nullptr) {
+    ::setenv("OMP_WAIT_POLICY", "PASSIVE", 0);
+    ::execv("/proc/self/exe", argv);
+  }
   CLI::App app{"PanoScan: panoramic RGB-D scanning testbed (Yang et al., TOG 2020)"};
   app.require_subcommand(1);
   bool verbose = false, quiet = false;
