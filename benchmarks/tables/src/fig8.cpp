@@ -10,8 +10,8 @@
 // ATE of the three cameras (mm), the RMSE (mm) of the stitched ground-truth depth of all cameras
 // (table2.cpp's construction, stride 8 px at 320 columns, pose-aligned), the optimisation time
 // (initialisation + Ceres solve, s) and the front end's time (s), with the options' threads.
-// Outputs besides the tables: fig8_sweep.csv and, when python3 is available, fig8.png drawn by
-// scripts/plot_fig8.py (found through $PANOSCAN_SOURCE_DIR, the working folder, or the folders
+// Outputs besides the tables: fig8_sweep.csv and, when python3 is available (/usr/bin/python3
+// first, Debian's, with matplotlib), fig8.png drawn by scripts/plot_fig8.py (found through $PANOSCAN_SOURCE_DIR, the working folder, or the folders
 // above the executable).
 #include <fcntl.h>
 #include <sys/file.h>
@@ -240,12 +240,14 @@ TableRun run_fig8(const TablesOptions& options) {
     fs::create_directories(out_dir);
     write_file_atomic(out_dir / "fig8_sweep.csv", csv);
     const fs::path script = find_plot_script();
-    if (std::system("command -v python3 > /dev/null 2>&1") != 0) {
+    // Debian's interpreter first: it has python3-matplotlib (a python3 earlier on PATH, e.g. pyenv's, may not).
+    const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+    if (std::system(("command -v " + python + " > /dev/null 2>&1").c_str()) != 0) {
       run.notes.push_back("python3 not found: fig8.png not drawn (scripts/plot_fig8.py fig8_sweep.csv fig8.png draws it)");
     } else if (script.empty()) {
       run.notes.push_back("scripts/plot_fig8.py not found (set PANOSCAN_SOURCE_DIR): fig8.png not drawn");
     } else {
-      const std::string command = fmt::format("python3 '{}' '{}' '{}'", script.string(), (out_dir / "fig8_sweep.csv").string(),
+      const std::string command = fmt::format("{} '{}' '{}' '{}'", python, script.string(), (out_dir / "fig8_sweep.csv").string(),
                                               (out_dir / "fig8.png").string());
       if (std::system(command.c_str()) == 0)
         run.notes.push_back("Plot: fig8.png (scripts/plot_fig8.py)");
