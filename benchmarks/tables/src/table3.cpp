@@ -62,7 +62,6 @@ constexpr PanoramaRow kPanoramaRows[] = {
 
 // What the driver runs; the defaults are the table's.
 struct Table3Settings {
-  bool baselines = true;  // TSDF and surfel rows
   FusionOptions fusion;   // method set per row; lambda_b etc. the defaults
 };
 
@@ -96,18 +95,16 @@ TableRun run_table3(const TablesOptions& options, const Table3Settings& settings
       const eval::MeshDistance mesh(scene.mesh);
       Equirectangular pano;
       pano.height = preset.panorama_height;
-      if (settings.baselines) {
-        TsdfOptions tsdf_options;
-        tsdf_options.voxel_m = preset.tsdf_voxel_m;
-        const TsdfResult tsdf = build_tsdf_baseline(scan, truth, tsdf_options);
-        all.set("TSDF Vol.", label, rmse_mm(mesh, tsdf.vertices.positions));
-        seconds.set("TSDF Vol.", label, tsdf.integrate_seconds + tsdf.extract_seconds);
-        const SurfelResult surfels = build_surfel_baseline(scan, truth, SurfelOptions{});
-        all.set("Surfels-4m", label, rmse_mm(mesh, surfels.surfels.positions));
-        seconds.set("Surfels-4m", label, surfels.seconds);
-        const ImageF32 rc = raycast_surfels(surfels, truth.world_from_axis, pano);
-        all.set("Surfels-4m (RC)", label, rmse_mm(mesh, depth_image_points(rc, truth.world_from_axis, pano)));
-      }
+      TsdfOptions tsdf_options;
+      tsdf_options.voxel_m = preset.tsdf_voxel_m;
+      const TsdfResult tsdf = build_tsdf_baseline(scan, truth, tsdf_options);
+      all.set("TSDF Vol.", label, rmse_mm(mesh, tsdf.vertices.positions));
+      seconds.set("TSDF Vol.", label, tsdf.integrate_seconds + tsdf.extract_seconds);
+      const SurfelResult surfels = build_surfel_baseline(scan, truth, SurfelOptions{});
+      all.set("Surfels-4m", label, rmse_mm(mesh, surfels.surfels.positions));
+      seconds.set("Surfels-4m", label, surfels.seconds);
+      const ImageF32 rc = raycast_surfels(surfels, truth.world_from_axis, pano);
+      all.set("Surfels-4m (RC)", label, rmse_mm(mesh, depth_image_points(rc, truth.world_from_axis, pano)));
       WarpOptions warp;
       warp.height = preset.panorama_height;
       auto start = std::chrono::steady_clock::now();
@@ -145,14 +142,6 @@ TableRun run_table3(const TablesOptions& options, const Table3Settings& settings
 }
 
 }  // namespace
-
-// The panorama rows only (no TSDF / surfels: minutes with Open3D), for the gate
-// (tests/gate_table3_test.cpp declares it; not part of the drivers' interface).
-TableRun run_table3_panorama_rows(const TablesOptions& options) {
-  Table3Settings settings;
-  settings.baselines = false;
-  return run_table3(options, settings);
-}
 
 TableDriver table3_driver() {
   return {"table3", "frame integration: TSDF, surfels, ERP averaging and Eq. 5 with TV / TSA / TP (GT poses)",
