@@ -43,6 +43,7 @@ void TrackingOptions::check(const std::string& origin) const {
   require(huber_delta > 0, "track.huber_delta", "must be > 0");
   require(depth_noise_coefficient > 0, "track.depth_noise_coefficient", "must be > 0");
   require(max_iterations >= 1 && max_iterations <= 10000, "track.max_iterations", "must be in [1, 10000]");
+  require(function_tolerance > 0 && function_tolerance < 1, "track.function_tolerance", "must be in (0, 1)");
   require(linear_solver == "sparse_schur" || linear_solver == "sparse_normal_cholesky", "track.linear_solver",
           "must be sparse_schur or sparse_normal_cholesky");
   require(threads >= 0, "threads", "must be >= 0");
@@ -88,6 +89,7 @@ TrackingOptions tracking_options_from_config(Config& config) {
   o.huber_delta = config.get_double("track.huber_delta", o.huber_delta, 1e-3, 1e3);
   o.depth_noise_coefficient = config.get_double("track.depth_noise_coefficient", o.depth_noise_coefficient, 1e-6, 1.0);
   o.max_iterations = config.get_int("track.max_iterations", o.max_iterations, 1, 10000);
+  o.function_tolerance = config.get_double("track.function_tolerance", o.function_tolerance, 1e-15, 0.5);
   o.linear_solver = config.get_string("track.linear_solver", o.linear_solver, {"sparse_schur", "sparse_normal_cholesky"});
   o.threads = config.get_int("threads", 0, 0, 1024);
   FrontendOptions& f = o.frontend;
@@ -401,7 +403,7 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   solver_options.max_num_iterations = options.max_iterations;
   solver_options.num_threads = options.threads > 0 ? options.threads : int(std::max(1u, std::thread::hardware_concurrency()));
-  solver_options.function_tolerance = 1e-7;
+  solver_options.function_tolerance = options.function_tolerance;
   solver_options.logging_type = ceres::SILENT;
   // No explicit ParameterBlockOrdering: Ceres orders the blocks of a user ordering by address, which
   // varies between runs (measured: about 25% faster but not reproducible); its automatic ordering
