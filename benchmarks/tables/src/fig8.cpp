@@ -13,9 +13,6 @@
 // Outputs besides the tables: fig8_sweep.csv and, when python3 is available (/usr/bin/python3
 // first, Debian's, with matplotlib), fig8.png drawn by scripts/plot_fig8.py (found through $PANOSCAN_SOURCE_DIR, the working folder, or the folders
 // above the executable).
-#include <fcntl.h>
-#include <sys/file.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -53,53 +50,6 @@ double ate_m(const RigTrajectory& truth, const RigTrajectory& estimate, int sens
 namespace {
 
 namespace fs = std::filesystem;
-
-// An exclusive flock on <path> for the lifetime of the object (same protocol as the scan cache).
-class ScanLock {
- public:
-  explicit ScanLock(const fs::path& path) : fd_(::open(path.c_str(), O_RDWR | O_CREAT, 0644)) {
-    if (fd_ < 0) throw make_error(path.string(), "", "cannot open the lock file");
-    ::flock(fd_, LOCK_EX);
-  }
-  ~ScanLock() {
-    ::flock(fd_, LOCK_UN);
-    ::close(fd_);
-  }
-  ScanLock(const ScanLock&) = delete;
-  ScanLock& operator=(const ScanLock&) = delete;
-
- private:
-  int fd_;
-};
-
-// The dense scan of `label` at every = n_min, simulated on first use.
-fs::path dense_scan(const std::string& label, const TablesOptions& options, const SizePreset& preset, int n_min) {
-  const fs::path cache = options.cache.empty() ? options.out / "scans" : options.cache;
-  if (cache.empty()) throw make_error("tables", "cache", "no scan cache folder given");
-  fs::create_directories(cache);
-  const std::string key =
-      fmt::format("{}_{}x{}_n{}_{}_seed{}", label, preset.width, preset.height, n_min, options.noise, options.seed);
-  const fs::path dir = cache / key;
-  ScanLock lock(cache / (key + ".lock"));
-  if (fs::exists(dir / "rig.json")) return dir;
-  const Scene scene = scenes::make_builtin_scene(label.rfind("SL", 0) == 0 ? "living_room" : "office");
-  int position = -1;
-  for (std::size_t i = 0; i < scene.positions.size(); ++i)
-    if (scene.positions[i].name == label) position = int(i);
-  if (position < 0) throw make_error("scan", label, "no such position in the built-in " + scene.name);
-  Config config;
-  config.set("camera.width", std::to_string(preset.width));
-  config.set("camera.height", std::to_string(preset.height));
-  config.set("output.every", std::to_string(n_min));
-  config.set("seed", std::to_string(options.seed));
-  config.set("noise.preset", options.noise);
-  if (options.threads > 0) config.set("threads", std::to_string(options.threads));
-  const SimOptions sim = sim_options_from_config(config);
-  config.check_all_used();
-  log_info(fmt::format("fig8: simulating {} at every {} into {}", label, n_min, dir.string()));
-  Simulator(scene, position, sim).write_scan(dir, true);
-  return dir;
-}
 
 // Every k-th frame of each camera (k >= 1).
 ScanIndex subsample(const ScanIndex& scan, int k) {
@@ -197,7 +147,7 @@ TableRun run_fig8(const TablesOptions& options) {
   tracking.frontend.threads = options.threads;
   tracking.frontend.seed = options.seed;
   for (const std::string& label : labels) {
-    const fs::path dir = dense_scan(label, options, preset, n_min);
+    const fs::path dir = cached_scan(label, options, n_min);
     const ScanIndex dense = read_scan_index(dir);
     const RigTrajectory dense_truth = eval::groundtruth_rig_trajectory(dir);
     const eval::MeshDistance mesh(read_ply_mesh(dir / "groundtruth" / "mesh.ply"), label + " mesh");

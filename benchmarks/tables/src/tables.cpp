@@ -141,13 +141,14 @@ std::string cpu_model() {
 
 }  // namespace
 
-fs::path cached_scan(const std::string& label, const TablesOptions& options) {
+fs::path cached_scan(const std::string& label, const TablesOptions& options, int every) {
   const SizePreset preset = size_preset(options.size);
+  if (every <= 0) every = preset.every;
   const fs::path cache = options.cache.empty() ? options.out / "scans" : options.cache;
   if (cache.empty()) throw make_error("tables", "cache", "no scan cache folder given");
   fs::create_directories(cache);
   // The key names everything that changes the scan.
-  const std::string key = fmt::format("{}_{}x{}_n{}_{}_seed{}", label, preset.width, preset.height, preset.every,
+  const std::string key = fmt::format("{}_{}x{}_n{}_{}_seed{}", label, preset.width, preset.height, every,
                                       options.noise, options.seed);
   const fs::path dir = cache / key;
   FileLock lock(cache / (key + ".lock"));
@@ -161,7 +162,7 @@ fs::path cached_scan(const std::string& label, const TablesOptions& options) {
   Config config;
   config.set("camera.width", std::to_string(preset.width));
   config.set("camera.height", std::to_string(preset.height));
-  config.set("output.every", std::to_string(preset.every));
+  config.set("output.every", std::to_string(every));
   config.set("seed", std::to_string(options.seed));
   config.set("noise.preset", options.noise);
   if (options.threads > 0) config.set("threads", std::to_string(options.threads));

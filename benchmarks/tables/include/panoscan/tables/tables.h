@@ -68,8 +68,9 @@ TableRun run_and_write(const std::string& name, const TablesOptions& options);
 
 // A built-in scan label ("SL-1", "SO-3") -> its simulated scan directory, simulated on first
 // use at the preset's size with the options' noise and seed. Safe to call from concurrent
-// processes sharing a cache (a file lock per scan).
-std::filesystem::path cached_scan(const std::string& label, const TablesOptions& options);
+// processes sharing a cache (a file lock per scan). `every` > 0 overrides the preset's sparsity
+// (Fig. 8 simulates a dense scan and subsamples it).
+std::filesystem::path cached_scan(const std::string& label, const TablesOptions& options, int every = 0);
 // "SO-13" -> {"SO-1", "SO-3"}.
 std::pair<std::string, std::string> pair_scans(const std::string& pair_label);
 
