@@ -1,9 +1,6 @@
 // Shared parts of the stage-2 drivers (table4.cpp, table5.cpp); see stage2_common.h.
 #include "stage2_common.h"
 
-#include <fcntl.h>
-#include <sys/file.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "cache_lock.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
@@ -25,32 +23,6 @@ namespace panoscan::tables::stage2 {
 
 namespace {
 
-// An exclusive flock for the lifetime of the object: concurrent gates build a panorama once.
-class PanoramaLock {
- public:
-  explicit PanoramaLock(const fs::path& path) {
-    fd_ = ::open(path.c_str(), O_CREAT | O_RDWR, 0644);
-    if (fd_ < 0) throw make_error(path.string(), "", "cannot open the panorama cache lock file");
-    if (::flock(fd_, LOCK_EX) != 0) {
-      ::close(fd_);
-      throw make_error(path.string(), "", "cannot lock the panorama cache");
-    }
-  }
-  ~PanoramaLock() {
-    ::flock(fd_, LOCK_UN);
-    ::close(fd_);
-  }
-  PanoramaLock(const PanoramaLock&) = delete;
-  PanoramaLock& operator=(const PanoramaLock&) = delete;
-
- private:
-  int fd_ = -1;
-};
-
-}  // namespace
-
-namespace {
-
 Panorama cached_panorama(const std::string& label, const TablesOptions& options, bool tracked) {
   const SizePreset preset = size_preset(options.size);
   const fs::path scan_dir = cached_scan(label, options);
@@ -60,7 +32,7 @@ Panorama cached_panorama(const std::string& label, const TablesOptions& options,
   const std::string key = fmt::format("{}_{}_tsa_H{}", scan_dir.filename().string(), tracked ? "tracked" : "gt",
                                       preset.panorama_height);
   const fs::path dir = cache / key;
-  PanoramaLock lock(cache / (key + ".lock"));
+  CacheLock lock(cache / (key + ".lock"));
   if (fs::exists(dir / "panorama.json")) return read_panorama(dir);
   Config config;
   config.set("panorama.height", std::to_string(preset.panorama_height));

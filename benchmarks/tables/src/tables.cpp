@@ -1,9 +1,6 @@
 // The table registry, the size presets, the scan cache and the report writer.
 #include "panoscan/tables/tables.h"
 
-#include <fcntl.h>
-#include <sys/file.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <ctime>
@@ -13,6 +10,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "cache_lock.h"
 #include "drivers.h"
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/config.h"
@@ -98,29 +96,6 @@ std::string scene_of_label(const std::string& label) {
   throw make_error("scan", label, "unknown built-in scan label (expected SL-n or SO-n)");
 }
 
-// Holds an exclusive flock on a file for its lifetime, so that processes sharing a cache
-// (ctest -j) simulate each scan once.
-class FileLock {
- public:
-  explicit FileLock(const fs::path& path) {
-    fd_ = ::open(path.c_str(), O_CREAT | O_RDWR, 0644);
-    if (fd_ < 0) throw make_error(path.string(), "", "cannot open the cache lock file");
-    if (::flock(fd_, LOCK_EX) != 0) {
-      ::close(fd_);
-      throw make_error(path.string(), "", "cannot lock the scan cache");
-    }
-  }
-  ~FileLock() {
-    ::flock(fd_, LOCK_UN);
-    ::close(fd_);
-  }
-  FileLock(const FileLock&) = delete;
-  FileLock& operator=(const FileLock&) = delete;
-
- private:
-  int fd_ = -1;
-};
-
 std::string utc_now() {
   const std::time_t now = std::time(nullptr);
   char text[32];
@@ -151,7 +126,7 @@ fs::path cached_scan(const std::string& label, const TablesOptions& options, int
   const std::string key = fmt::format("{}_{}x{}_n{}_{}_seed{}", label, preset.width, preset.height, every,
                                       options.noise, options.seed);
   const fs::path dir = cache / key;
-  FileLock lock(cache / (key + ".lock"));
+  CacheLock lock(cache / (key + ".lock"));
   if (fs::exists(dir / "rig.json")) return dir;
   const Scene scene = scenes::make_builtin_scene(scene_of_label(label));
   int position = -1;
