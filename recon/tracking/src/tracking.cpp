@@ -15,6 +15,7 @@
 #include <memory>
 #include <thread>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "panoscan/core/atomic_output.h"
@@ -90,6 +91,7 @@ TrackingOptions tracking_options_from_config(Config& config) {
   o.depth_noise_coefficient = config.get_double("track.depth_noise_coefficient", o.depth_noise_coefficient, 1e-6, 1.0);
   o.max_iterations = config.get_int("track.max_iterations", o.max_iterations, 1, 10000);
   o.function_tolerance = config.get_double("track.function_tolerance", o.function_tolerance, 1e-15, 0.5);
+  o.log_iterations = config.get_bool("track.log_iterations", o.log_iterations);
   o.linear_solver = config.get_string("track.linear_solver", o.linear_solver, {"sparse_schur", "sparse_normal_cholesky"});
   o.threads = config.get_int("threads", 0, 0, 1024);
   FrontendOptions& f = o.frontend;
@@ -155,6 +157,23 @@ std::vector<double> azimuths(const std::vector<Rigid3d>& world_from_cam, const R
 }
 
 bool finite(const Rigid3d& pose) { return pose.matrix().allFinite(); }
+
+// track.log_iterations: Ceres' per-iteration summary as log lines, and its full report at the end
+// (where a slow solve spends its time).
+class IterationLogger : public ceres::IterationCallback {
+ public:
+  explicit IterationLogger(std::string origin) : origin_(std::move(origin)) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& it) override {
+    log_info(fmt::format("{}: LM iteration {:3d} cost {:.6e} change {:+.3e} {} radius {:.2e} linear solver {:.2f} s, "
+                         "iteration {:.2f} s", origin_, it.iteration, it.cost, -it.cost_change,
+                         it.step_is_successful ? "accepted" : "rejected", it.trust_region_radius,
+                         it.linear_solver_iterations > 0 ? it.step_solver_time_in_seconds : 0.0, it.iteration_time_in_seconds));
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  std::string origin_;
+};
 
 }  // namespace
 
@@ -408,11 +427,14 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   // No explicit ParameterBlockOrdering: Ceres orders the blocks of a user ordering by address, which
   // varies between runs (measured: about 25% faster but not reproducible); its automatic ordering
   // finds the landmarks as the eliminated set and is reproducible.
+  IterationLogger iteration_logger(origin);
+  if (options.log_iterations) solver_options.callbacks.push_back(&iteration_logger);
   ceres::Solver::Summary summary;
   if (problem.NumResidualBlocks() > 0) {
     term_costs(stats.initial_term_costs);
     ceres::Solve(solver_options, &problem, &summary);
     term_costs(stats.final_term_costs);
+    if (options.log_iterations) log_info(summary.FullReport());
   }
   const auto solve_done = std::chrono::steady_clock::now();
 

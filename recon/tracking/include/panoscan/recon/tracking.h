@@ -87,6 +87,7 @@ struct TrackingOptions {
   // 1e-5 against the earlier 1e-7 (320x240, seed 1): the same ATE to 0.006 mm on SO-1 and SL-1 at
   // n = 16 and on SO-1 at n = 8, with 2.1-3.7x less solve time (SO-1 n = 8: 93 -> 31 iterations).
   double function_tolerance = 1e-5;
+  bool log_iterations = false;                  // track.log_iterations: one log line per LM iteration (cost, times)
   std::string linear_solver = "sparse_schur";   // track.linear_solver: sparse_schur | sparse_normal_cholesky
   int threads = 0;                              // threads (0 = all cores)
   FrontendOptions frontend;                     // frontend.* keys
