@@ -6,32 +6,16 @@
 
 #include <gtest/gtest.h>
 
+#include "cli_util.h"
 #include "test_util.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct RunResult {
-  int exit_code = 0;
-  std::string output;
-};
-
-RunResult run(const std::string& arguments) {
-  const std::string command = std::string(PANOSCAN_BINARY_DIR) + "/app/panoscan " + arguments + " 2>&1";
-  RunResult result;
-  FILE* pipe = popen(command.c_str(), "r");
-  std::array<char, 4096> buffer{};
-  while (fgets(buffer.data(), buffer.size(), pipe)) result.output += buffer.data();
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
-
-void expect_failure_naming(const RunResult& r, const std::vector<std::string>& needles) {
-  EXPECT_NE(r.exit_code, 0) << r.output;
-  for (const auto& needle : needles) EXPECT_NE(r.output.find(needle), std::string::npos) << "missing '" << needle << "' in: " << r.output;
-}
+using panoscan::testutil::expect_failure_naming;
+using panoscan::testutil::RunResult;
+RunResult run(const std::string& arguments) { return panoscan::testutil::run_panoscan(arguments); }
 
 std::size_t count_entries(const fs::path& dir) {
   std::size_t n = 0;

@@ -17,6 +17,7 @@
 #include "panoscan/core/point_cloud.h"
 #include "panoscan/core/pose_json.h"
 #include "panoscan/sim/renderer.h"
+#include "cli_util.h"
 #include "test_util.h"
 
 using namespace panoscan;
@@ -171,27 +172,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct RunResult {
-  int exit_code = 0;
-  std::string output;
-};
-
-RunResult run_panoscan(const std::string& arguments) {
-  const std::string command = std::string(PANOSCAN_BINARY_DIR) + "/app/panoscan " + arguments + " 2>&1";
-  RunResult result;
-  FILE* pipe = popen(command.c_str(), "r");
-  std::array<char, 4096> buffer{};
-  while (fgets(buffer.data(), buffer.size(), pipe)) result.output += buffer.data();
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
-
-void expect_failure_naming(const RunResult& r, const std::vector<std::string>& needles) {
-  EXPECT_NE(r.exit_code, 0) << r.output;
-  for (const auto& needle : needles)
-    EXPECT_NE(r.output.find(needle), std::string::npos) << "missing '" << needle << "' in: " << r.output;
-}
+using testutil::expect_failure_naming;
+using testutil::run_panoscan;
+using testutil::RunResult;
 
 // Two office panoramas (SO-1 and SO-3 positions, the second turned by -25 degrees) in folders.
 struct OfficePanoramaFolders {

@@ -327,14 +327,17 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
               extrinsics[s].q, extrinsics[s].t, axis.q, rig.q));
   }
 
+  // Every frame of the active cameras in timestamp order (ties by camera), for the factors that
+  // link frames across cameras.
+  struct Node { double t; int s, f; };
+  std::vector<Node> nodes;
+  for (int s = 0; s < sensor_count; ++s)
+    if (active[s])
+      for (std::size_t f = 0; f < poses[s].size(); ++f) nodes.push_back({scan.frames[s][f].timestamp, s, int(f)});
+  std::sort(nodes.begin(), nodes.end(), [](const Node& a, const Node& b) { return a.t != b.t ? a.t < b.t : a.s < b.s; });
+
   // Shared wobble between consecutive frames of different cameras (tracking.h).
   if (use_regularisation && options.shared_wobble) {
-    struct Node { double t; int s, f; };
-    std::vector<Node> nodes;
-    for (int s = 0; s < sensor_count; ++s)
-      if (active[s])
-        for (std::size_t f = 0; f < poses[s].size(); ++f) nodes.push_back({scan.frames[s][f].timestamp, s, int(f)});
-    std::sort(nodes.begin(), nodes.end(), [](const Node& a, const Node& b) { return a.t != b.t ? a.t < b.t : a.s < b.s; });
     const double rate_r = deg2rad(options.wobble_rate_std_deg_s), rate_t = options.wobble_rate_std_m_s;
     constexpr double kFloorS = 1e-3;  // timestamp jitter
     for (std::size_t k = 0; k + 1 < nodes.size(); ++k) {
@@ -353,12 +356,6 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
 
   // Eq. 3: velocity smoothness over all frames of all cameras in timestamp order.
   if (use_velocity) {
-    struct Node { double t; int s, f; };
-    std::vector<Node> nodes;
-    for (int s = 0; s < sensor_count; ++s)
-      if (active[s])
-        for (std::size_t f = 0; f < poses[s].size(); ++f) nodes.push_back({scan.frames[s][f].timestamp, s, int(f)});
-    std::sort(nodes.begin(), nodes.end(), [](const Node& a, const Node& b) { return a.t != b.t ? a.t < b.t : a.s < b.s; });
     std::vector<Node> instants;  // one representative per instant
     const double sigma_accel = deg2rad(options.angular_accel_std_deg_s2);
     for (const Node& n : nodes) {
