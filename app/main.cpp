@@ -17,6 +17,7 @@
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
+#include "panoscan/core/version.h"
 #include "commands.h"
 
 namespace fs = std::filesystem;
@@ -57,6 +58,7 @@ int main(int argc, char** argv) {
   }
   CLI::App app{"PanoScan: panoramic RGB-D scanning testbed (Yang et al., TOG 2020)"};
   app.require_subcommand(1);
+  app.set_version_flag("--version", "panoscan " + project_version() + " (" + source_revision() + ")");
   bool verbose = false, quiet = false;
   app.add_flag("-v,--verbose", verbose, "debug logging");
   app.add_flag("-q,--quiet", quiet, "warnings and errors only");

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "cli_util.h"
+#include "panoscan/core/version.h"
 #include "test_util.h"
 
 namespace fs = std::filesystem;
@@ -31,6 +32,12 @@ TEST(Cli, HelpOnEverySubcommand) {
     EXPECT_EQ(r.exit_code, 0) << sub;
     EXPECT_NE(r.output.find("Usage"), std::string::npos) << sub;
   }
+}
+
+TEST(Cli, VersionNamesTheSourceRevision) {
+  const RunResult r = run("--version");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(r.output, "panoscan " + panoscan::project_version() + " (" + panoscan::source_revision() + ")\n");
 }
 
 TEST(Cli, BadInputExitsNonZeroNamingFileAndField) {

@@ -10,6 +10,7 @@
 
 #include "panoscan/core/error.h"
 #include "panoscan/core/point_cloud.h"
+#include "panoscan/core/version.h"
 #include "panoscan/eval/colour_map.h"
 #include "panoscan/eval/coloured_cloud.h"
 #include "panoscan/eval/report.h"
@@ -19,6 +20,7 @@ namespace panoscan::eval {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::MatchesRegex;
 
 std::string read_text(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -68,9 +70,12 @@ TEST(Report, CsvAndFiles) {
   EXPECT_EQ(read_text(dir / "table3.csv"), table_to_csv(table));
 }
 
-TEST(Report, VersionIsCompiledIn) {
+TEST(Report, VersionAndRevisionAreCompiledIn) {
   EXPECT_FALSE(project_version().empty());
   EXPECT_NE(project_version(), "unknown");
+  // The tests run from a git checkout (CI clones the repository), so the revision is known: a
+  // hexadecimal commit, with "-dirty" when built from uncommitted changes.
+  EXPECT_THAT(source_revision(), MatchesRegex("[0-9a-f]{12}(-dirty)?|.*-g[0-9a-f]{12}(-dirty)?"));
 }
 
 TEST(ColourMap, EndpointsClampingAndNames) {

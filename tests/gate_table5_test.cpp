@@ -8,9 +8,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <iostream>
 
+#include <nlohmann/json.hpp>
+
 #include "gate_util.h"
+#include "panoscan/core/version.h"
 #include "panoscan/eval/report.h"
 #include "panoscan/tables/tables.h"
 
@@ -18,8 +22,15 @@ using namespace panoscan;
 
 namespace {
 
+// Through run_and_write (what `panoscan tables table5` calls), so that the record is checked too.
+tables::TablesOptions table5_options() {
+  tables::TablesOptions options = test::gate_options();
+  options.out = std::filesystem::path(PANOSCAN_BINARY_DIR) / "gate-records";
+  return options;
+}
+
 const tables::TableRun& table5_run() {
-  static const tables::TableRun run = tables::table_driver("table5").run(test::gate_options());
+  static const tables::TableRun run = tables::run_and_write("table5", table5_options());
   return run;
 }
 
@@ -43,6 +54,25 @@ TEST(GateTable5, MapBeatsAverageBeatsAlignOnly) {
 TEST(GateTable5, MeasuredVarianceBeatsAConstantInMap) {
   const eval::ResultTable& rmse = table5_run().table("Table 5:");
   EXPECT_LT(rmse.get("Align + MAP", kPair), rmse.get("Align + MAP (constant sigma_z; ablation)", kPair));
+}
+
+TEST(GateTable5, RecordNamesTheCodeThatMadeItAndItsScans) {
+  table5_run();
+  const std::filesystem::path dir = table5_options().out / "table5";
+  for (const char* ext : {".md", ".csv"})
+    EXPECT_TRUE(std::filesystem::exists(dir / (std::string("table5") + ext))) << ext;
+  std::ifstream in(dir / "table5.json");
+  const nlohmann::json record = nlohmann::json::parse(in);
+  EXPECT_EQ(record["version"], project_version());
+  EXPECT_EQ(record["source_revision"], source_revision());
+  EXPECT_EQ(record["settings"]["size"], "quick");
+  EXPECT_EQ(record["settings"]["noise"], "handa");
+  // The pair's two scans, rendered in this ctest run (the gate cache is reset first).
+  ASSERT_EQ(record["scans_rendered_by"].size(), 2u) << record["scans_rendered_by"].dump();
+  for (const auto& [folder, revision] : record["scans_rendered_by"].items())
+    EXPECT_EQ(revision, source_revision()) << folder;
+  const double map = record["tables"][0]["values"]["Align + MAP"][kPair].get<double>();
+  EXPECT_DOUBLE_EQ(map, table5_run().table("Table 5:").get("Align + MAP", kPair));
 }
 
 TEST(GateTable5, Ceilings) {

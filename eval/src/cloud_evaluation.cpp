@@ -11,6 +11,7 @@
 
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
+#include "panoscan/core/version.h"
 #include "panoscan/core/log.h"
 #include "panoscan/core/mesh_io.h"
 #include "panoscan/core/point_cloud.h"
@@ -189,6 +190,7 @@ std::string cloud_report_to_json(const CloudEvalReport& r) {
   nlohmann::json j;
   j["kind"] = "cloud_evaluation";
   j["panoscan_version"] = project_version();
+  j["source_revision"] = source_revision();
   j["inputs"] = {{"mesh", r.mesh_path.string()},
                  {"mesh_triangles", r.mesh_triangles},
                  {"mesh_area_m2", r.mesh_area_m2},

@@ -9,13 +9,7 @@
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/error.h"
 
-#ifndef PANOSCAN_VERSION
-#define PANOSCAN_VERSION "unknown"
-#endif
-
 namespace panoscan::eval {
-
-std::string project_version() { return PANOSCAN_VERSION; }
 
 namespace {
 

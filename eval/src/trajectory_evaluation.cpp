@@ -10,6 +10,7 @@
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
+#include "panoscan/core/version.h"
 #include "panoscan/eval/report.h"
 
 namespace panoscan::eval {
@@ -79,6 +80,7 @@ std::string trajectory_report_to_json(const TrajectoryEvalReport& r) {
   nlohmann::json j;
   j["kind"] = "trajectory_evaluation";
   j["panoscan_version"] = project_version();
+  j["source_revision"] = source_revision();
   j["inputs"] = {{"ground_truth", r.gt_path.string()},
                  {"estimate", r.est_path.string()},
                  {"gt_poses", m.gt_poses},

@@ -10,6 +10,7 @@
 #include "panoscan/core/pose_json.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
+#include "panoscan/core/version.h"
 #include "panoscan/core/random.h"
 #include "panoscan/sim/noise.h"
 
@@ -71,6 +72,9 @@ std::string Simulator::rig_truth_json() const {
   nlohmann::json j;
   j["format"] = "panoscan-rig-truth";
   j["version"] = 1;
+  // Which code rendered the scan: a scan cache outlives the code, so a record made from cached scans
+  // can say whether the simulator has changed since (see panoscan tables).
+  j["rendered_by"] = {{"version", project_version()}, {"source_revision", source_revision()}};
   j["scene"] = scene_.name;
   j["position"] = {{"name", position_.name},
                    {"floor_point", vec_json(position_.floor_point)},

@@ -5,6 +5,8 @@
 #include <chrono>
 #include <ctime>
 #include <fstream>
+#include <map>
+#include <mutex>
 #include <thread>
 
 #include <fmt/format.h>
@@ -16,6 +18,7 @@
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
+#include "panoscan/core/version.h"
 #include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/simulator.h"
 
@@ -116,6 +119,29 @@ std::string cpu_model() {
 
 }  // namespace
 
+namespace {
+
+// The scans a table run used and the source revision that rendered each (rig_truth.json's
+// rendered_by), for the JSON record: the cache is keyed by settings, not by code.
+std::mutex scans_used_mutex;
+std::map<std::string, std::string> scans_used;
+
+void record_scan_used(const fs::path& dir) {
+  std::string revision = "not recorded (rendered before revisions were recorded)";
+  try {
+    std::ifstream in(dir / "groundtruth" / "rig_truth.json");
+    const nlohmann::json truth = nlohmann::json::parse(in);
+    if (truth.contains("rendered_by") && truth["rendered_by"].contains("source_revision"))
+      revision = truth["rendered_by"]["source_revision"].get<std::string>();
+  } catch (const std::exception&) {
+    revision = "unreadable rig_truth.json";
+  }
+  std::lock_guard<std::mutex> guard(scans_used_mutex);
+  scans_used[dir.filename().string()] = revision;
+}
+
+}  // namespace
+
 fs::path cached_scan(const std::string& label, const TablesOptions& options, int every) {
   const SizePreset preset = size_preset(options.size);
   if (every <= 0) every = preset.every;
@@ -127,7 +153,10 @@ fs::path cached_scan(const std::string& label, const TablesOptions& options, int
                                       options.noise, options.seed);
   const fs::path dir = cache / key;
   CacheLock lock(cache / (key + ".lock"));
-  if (fs::exists(dir / "rig.json")) return dir;
+  if (fs::exists(dir / "rig.json")) {
+    record_scan_used(dir);
+    return dir;
+  }
   const Scene scene = scenes::make_builtin_scene(scene_of_label(label));
   int position = -1;
   for (std::size_t i = 0; i < scene.positions.size(); ++i)
@@ -145,6 +174,7 @@ fs::path cached_scan(const std::string& label, const TablesOptions& options, int
   config.check_all_used();
   log_info(fmt::format("tables: simulating {} into {}", label, dir.string()));
   Simulator(scene, position, sim).write_scan(dir, true);
+  record_scan_used(dir);
   return dir;
 }
 
@@ -152,6 +182,10 @@ TableRun run_and_write(const std::string& name, const TablesOptions& options) {
   const TableDriver& driver = table_driver(name);
   check_tables_options(options);
   if (options.out.empty()) throw make_error("tables", "--out", "an output folder is required");
+  {
+    std::lock_guard<std::mutex> guard(scans_used_mutex);
+    scans_used.clear();
+  }
   const auto start = std::chrono::steady_clock::now();
   TableRun run = driver.run(options);
   run.name = name;
@@ -174,7 +208,8 @@ TableRun run_and_write(const std::string& name, const TablesOptions& options) {
   nlohmann::json j;
   j["table"] = name;
   j["description"] = driver.description;
-  j["version"] = eval::project_version();
+  j["version"] = project_version();
+  j["source_revision"] = source_revision();
   j["date_utc"] = utc_now();
   j["seconds"] = seconds;
   j["machine"] = {{"cpu", cpu_model()}, {"hardware_threads", std::thread::hardware_concurrency()}};
@@ -196,6 +231,10 @@ TableRun run_and_write(const std::string& name, const TablesOptions& options) {
     j["tables"].push_back(table);
   }
   j["notes"] = run.notes;
+  {
+    std::lock_guard<std::mutex> guard(scans_used_mutex);
+    j["scans_rendered_by"] = scans_used;  // cache folder -> source revision that rendered it
+  }
   write_file_atomic(dir / (name + ".json"), j.dump(2) + "\n");
   log_info(fmt::format("tables: {} done in {:.0f} s, written to {}", name, seconds, dir.string()));
   return run;

@@ -1,5 +1,5 @@
 // Tables laid out like the paper's (rows: methods, columns: scans, e.g. "SL-1", "SO-3"), as
-// Markdown and CSV, and the version string that every JSON report carries.
+// Markdown and CSV. (The version every JSON report carries is in panoscan/core/version.h.)
 #pragma once
 
 #include <filesystem>
@@ -7,9 +7,6 @@
 #include <vector>
 
 namespace panoscan::eval {
-
-// The project version (CMake's PROJECT_VERSION, compiled in).
-std::string project_version();
 
 struct ResultTable {
   std::string title;                 // e.g. "Table 3: fusion, RMSE"
