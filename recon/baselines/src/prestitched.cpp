@@ -12,12 +12,12 @@
 #include <tbb/task_arena.h>
 
 #include <open3d/camera/PinholeCameraIntrinsic.h>
-#include <open3d/geometry/Image.h>
 #include <open3d/geometry/RGBDImage.h>
 #include <open3d/pipelines/odometry/Odometry.h>
 #include <open3d/utility/Logging.h>
 
 #include "panoscan/core/error.h"
+#include "panoscan/recon/open3d_frame.h"
 
 namespace panoscan {
 
@@ -315,21 +315,6 @@ StitchedScanInfo write_stitched_scan(const ScanIndex& scan, const fs::path& out_
 
 namespace {
 
-std::shared_ptr<open3d::geometry::RGBDImage> to_open3d(const RgbdFrame& frame, double max_depth_m) {
-  namespace o3d = open3d;
-  o3d::geometry::Image colour, depth;
-  colour.Prepare(frame.rgb.width, frame.rgb.height, 3, 1);
-  std::copy(frame.rgb.data.begin(), frame.rgb.data.end(), colour.data_.begin());
-  depth.Prepare(frame.depth.width, frame.depth.height, 1, 4);
-  float* d = depth.PointerAs<float>();
-  for (std::size_t i = 0; i < frame.depth.data.size(); ++i) {
-    const float z = frame.depth.data[i];
-    d[i] = (std::isfinite(z) && z > 0.f) ? z : 0.f;
-  }
-  // Intensity (the photometric term) from the colour; depth in metres, truncated like the tracker.
-  return o3d::geometry::RGBDImage::CreateFromColorAndDepth(colour, depth, 1.0, max_depth_m, true);
-}
-
 // Runs Open3D's OpenMP regions on one thread for the guard's lifetime. Open3D 0.16 sizes every
 // parallel region with num_threads(EstimateMaxThreads()), which reads OMP_NUM_THREADS on each call
 // (omp_set_num_threads does not reach it). One thread makes the odometry reproducible (Open3D
@@ -396,10 +381,10 @@ StitchedOdometryResult track_stitched_scan(const ScanIndex& stitched, const Stit
   auto& poses = result.trajectory.world_from_cam[0];
   const auto& frames = stitched.frames[0];
   poses.push_back({frames[0].timestamp, Rigid3d::Identity()});
-  auto previous = to_open3d(load_frame(stitched, 0, 0), options.max_depth_m);
+  auto previous = open3d_rgbd_from_frame(load_frame(stitched, 0, 0), options.max_depth_m, true);
   Eigen::Matrix4d last_step = Eigen::Matrix4d::Identity();  // previous_from_current of the last step
   for (std::size_t i = 1; i < frames.size(); ++i) {
-    auto current = to_open3d(load_frame(stitched, 0, i), options.max_depth_m);
+    auto current = open3d_rgbd_from_frame(load_frame(stitched, 0, i), options.max_depth_m, true);
     // Open3D returns the transformation taking the source (current) frame's points into the
     // target (previous) frame: previous_from_current.
     const auto [ok, step, information] =

@@ -5,12 +5,12 @@
 #include <cmath>
 
 #include <open3d/camera/PinholeCameraIntrinsic.h>
-#include <open3d/geometry/Image.h>
 #include <open3d/geometry/RGBDImage.h>
 #include <open3d/geometry/TriangleMesh.h>
 #include <open3d/pipelines/integration/ScalableTSDFVolume.h>
 
 #include "panoscan/core/error.h"
+#include "panoscan/recon/open3d_frame.h"
 
 namespace panoscan {
 
@@ -34,17 +34,7 @@ TsdfResult build_tsdf_baseline(const ScanIndex& scan, const RigTrajectory& traje
     const PinholeIntrinsics& k = scan.rig.sensors[s].intrinsics;
     const o3d::camera::PinholeCameraIntrinsic intrinsic(k.width, k.height, k.fx, k.fy, k.cx, k.cy);
     for (std::size_t f = 0; f < scan.frames[s].size(); f += std::size_t(options.frame_stride)) {
-      const RgbdFrame frame = load_frame(scan, int(s), f);
-      o3d::geometry::Image colour, depth;
-      colour.Prepare(frame.rgb.width, frame.rgb.height, 3, 1);
-      std::copy(frame.rgb.data.begin(), frame.rgb.data.end(), colour.data_.begin());
-      depth.Prepare(frame.depth.width, frame.depth.height, 1, 4);
-      float* d = depth.PointerAs<float>();
-      for (std::size_t i = 0; i < frame.depth.data.size(); ++i) {
-        const float z = frame.depth.data[i];
-        d[i] = (std::isfinite(z) && z > 0.f) ? z : 0.f;
-      }
-      const auto rgbd = o3d::geometry::RGBDImage::CreateFromColorAndDepth(colour, depth, 1.0, options.max_depth_m, false);
+      const auto rgbd = open3d_rgbd_from_frame(load_frame(scan, int(s), f), options.max_depth_m, false);
       const Eigen::Matrix4d cam_from_world = trajectory.world_from_cam[s][f].world_from_cam.inverse().matrix();
       volume.Integrate(*rgbd, intrinsic, cam_from_world);
     }
