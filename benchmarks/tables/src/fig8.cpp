@@ -7,7 +7,7 @@
 // unchanged), so every n sees the same images. Quick size: SO-1 only; full: SO-1 and SL-1.
 // Per n: the full factor graph (three cameras) from its own front end; the figures are the mean
 // ATE of the three cameras (mm), the RMSE (mm) of the stitched ground-truth depth of all cameras
-// (table2.cpp's construction, stride 8 px at 320 columns, pose-aligned), the optimisation time
+// (tracking_eval.h, stride 8 px at 320 columns, pose-aligned), the optimisation time
 // (initialisation + Ceres solve, s) and the front end's time (s), with the options' threads.
 // Outputs besides the tables: fig8_sweep.csv and, when python3 is available (/usr/bin/python3
 // first, Debian's, with matplotlib), fig8.png drawn by scripts/plot_fig8.py (found through $PANOSCAN_SOURCE_DIR, the working folder, or the folders
@@ -19,9 +19,9 @@
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
-#include <tbb/parallel_for.h>
 
 #include "drivers.h"
+#include "tracking_eval.h"
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
@@ -36,15 +36,6 @@
 #include "panoscan/sim/simulator.h"
 
 namespace panoscan::tables {
-
-// Defined in table2.cpp.
-namespace tracking_eval {
-Rigid3d pose_alignment(const RigTrajectory& truth, const RigTrajectory& estimate, const std::vector<int>& sensors);
-double stitched_rmse_m(const std::vector<std::vector<std::vector<Eigen::Vector3d>>>& points_in_camera,
-                       const RigTrajectory& estimate, const Rigid3d& truth_from_estimate,
-                       const eval::MeshDistance& mesh, const std::vector<int>& sensors);
-double ate_m(const RigTrajectory& truth, const RigTrajectory& estimate, int sensor);
-}  // namespace tracking_eval
 
 namespace {
 
@@ -73,32 +64,6 @@ std::vector<std::vector<T>> subsample(const std::vector<std::vector<T>>& per_fra
   std::vector<std::vector<T>> out(per_frame.size());
   for (std::size_t s = 0; s < per_frame.size(); ++s)
     for (std::size_t f = 0; f < per_frame[s].size(); f += std::size_t(k)) out[s].push_back(per_frame[s][f]);
-  return out;
-}
-
-// Mesh points seen by every frame (true camera frame), as table2.cpp's mesh_points_in_camera but
-// with a coarser stride (the dense scan has n_min / 16 times as many frames as Table 2's).
-std::vector<std::vector<std::vector<Eigen::Vector3d>>> mesh_points(const ScanIndex& scan, const RigTrajectory& truth,
-                                                                   const eval::MeshDistance& mesh) {
-  constexpr double kMaxSnapM = 0.05;
-  std::vector<std::vector<std::vector<Eigen::Vector3d>>> out(scan.frames.size());
-  for (std::size_t s = 0; s < scan.frames.size(); ++s) {
-    out[s].resize(scan.frames[s].size());
-    const PinholeIntrinsics& intrinsics = scan.rig.sensors[s].intrinsics;
-    const int stride = std::max(1, int(std::lround(8.0 * intrinsics.width / 320.0)));
-    tbb::parallel_for(std::size_t(0), scan.frames[s].size(), [&](std::size_t f) {
-      const RgbdFrame frame = load_frame(scan, int(s), f);
-      const Rigid3d& world_from_cam = truth.world_from_cam[s][f].world_from_cam;
-      const Rigid3d cam_from_world = world_from_cam.inverse();
-      for (int v = stride / 2; v < frame.depth.height; v += stride)
-        for (int u = stride / 2; u < frame.depth.width; u += stride) {
-          const float z = frame.depth.data[std::size_t(v) * frame.depth.width + u];
-          if (!(z > 0)) continue;
-          const auto closest = mesh.closest(world_from_cam * intrinsics.backproject(u, v, z));
-          if (closest.distance <= kMaxSnapM) out[s][f].push_back(cam_from_world * closest.point);
-        }
-    });
-  }
   return out;
 }
 
@@ -150,9 +115,10 @@ TableRun run_fig8(const TablesOptions& options) {
     const ScanIndex dense = read_scan_index(dir);
     const RigTrajectory dense_truth = eval::groundtruth_rig_trajectory(dir);
     const eval::MeshDistance mesh(read_ply_mesh(dir / "groundtruth" / "mesh.ply"), label + " mesh");
-    const auto dense_points = mesh_points(dense, dense_truth, mesh);
     std::vector<int> all;
     for (int s = 0; s < int(dense.frames.size()); ++s) all.push_back(s);
+    // Stride 8 px at 320 columns: the dense scan has 16 times as many frames as Table 2's (stride 4).
+    const auto dense_points = tracking_eval::mesh_points_in_camera(dense, dense_truth, mesh, all, 8.0);
     for (int n : sweep) {
       if (n % n_min != 0) continue;
       const int k = n / n_min;

@@ -14,14 +14,13 @@
 // = the difference of the centroids (the ATE's position-only alignment is ill-conditioned in tilt:
 // the camera centres lie on a circle of about 10 cm).
 //
-// The helpers in tracking_eval are shared with fig8.cpp (declared there).
+// The metrics are in tracking_eval.h, shared with fig8.cpp.
 #include <cmath>
 
-#include <Eigen/SVD>
 #include <fmt/format.h>
-#include <tbb/parallel_for.h>
 
 #include "drivers.h"
+#include "tracking_eval.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/mesh_io.h"
 #include "panoscan/core/scan.h"
@@ -33,82 +32,6 @@
 
 namespace panoscan::tables {
 
-namespace tracking_eval {
-
-// Mesh points seen by the frames of `sensors`, in the true camera frame: [sensor][frame] -> points.
-std::vector<std::vector<std::vector<Eigen::Vector3d>>> mesh_points_in_camera(const ScanIndex& scan,
-                                                                             const RigTrajectory& truth,
-                                                                             const eval::MeshDistance& mesh,
-                                                                             const std::vector<int>& sensors) {
-  constexpr double kMaxSnapM = 0.05;
-  std::vector<std::vector<std::vector<Eigen::Vector3d>>> out(scan.frames.size());
-  for (int s : sensors) {
-    out[s].resize(scan.frames[s].size());
-    const PinholeIntrinsics& intrinsics = scan.rig.sensors[s].intrinsics;
-    const int stride = std::max(1, int(std::lround(4.0 * intrinsics.width / 320.0)));
-    tbb::parallel_for(std::size_t(0), scan.frames[s].size(), [&](std::size_t f) {
-      const RgbdFrame frame = load_frame(scan, s, f);
-      const Rigid3d& world_from_cam = truth.world_from_cam[s][f].world_from_cam;
-      const Rigid3d cam_from_world = world_from_cam.inverse();
-      for (int v = stride / 2; v < frame.depth.height; v += stride)
-        for (int u = stride / 2; u < frame.depth.width; u += stride) {
-          const float z = frame.depth.data[std::size_t(v) * frame.depth.width + u];
-          if (!(z > 0)) continue;
-          const auto closest = mesh.closest(world_from_cam * intrinsics.backproject(u, v, z));
-          if (closest.distance > kMaxSnapM) continue;
-          out[s][f].push_back(cam_from_world * closest.point);
-        }
-    });
-  }
-  return out;
-}
-
-// truth_from_estimate over the frames of `sensors` (see the top of this file).
-Rigid3d pose_alignment(const RigTrajectory& truth, const RigTrajectory& estimate, const std::vector<int>& sensors) {
-  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d truth_centroid = Eigen::Vector3d::Zero(), estimate_centroid = Eigen::Vector3d::Zero();
-  int count = 0;
-  for (int s : sensors)
-    for (std::size_t f = 0; f < estimate.world_from_cam[s].size(); ++f) {
-      const Rigid3d& t = truth.world_from_cam[s][f].world_from_cam;
-      const Rigid3d& e = estimate.world_from_cam[s][f].world_from_cam;
-      sum += t.linear() * e.linear().transpose();
-      truth_centroid += t.translation();
-      estimate_centroid += e.translation();
-      ++count;
-    }
-  if (count == 0) return Rigid3d::Identity();
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d u = svd.matrixU();
-  if ((u * svd.matrixV().transpose()).determinant() < 0) u.col(2) *= -1;
-  const Eigen::Matrix3d rotation = u * svd.matrixV().transpose();
-  return make_rigid(rotation, (truth_centroid - rotation * estimate_centroid) / count);
-}
-
-// RMSE (m) of the stitched points of `sensors` placed by truth_from_estimate * estimate.
-double stitched_rmse_m(const std::vector<std::vector<std::vector<Eigen::Vector3d>>>& points_in_camera,
-                       const RigTrajectory& estimate, const Rigid3d& truth_from_estimate,
-                       const eval::MeshDistance& mesh, const std::vector<int>& sensors) {
-  std::vector<Eigen::Vector3d> placed;
-  for (int s : sensors)
-    for (std::size_t f = 0; f < points_in_camera[s].size(); ++f) {
-      const Rigid3d pose = truth_from_estimate * estimate.world_from_cam[s][f].world_from_cam;
-      for (const Eigen::Vector3d& p : points_in_camera[s][f]) placed.push_back(pose * p);
-    }
-  if (placed.empty()) return std::nan("");
-  double sum = 0;
-  for (double d : mesh.distances(placed, "stitched ground-truth depth")) sum += d * d;
-  return std::sqrt(sum / double(placed.size()));
-}
-
-double ate_m(const RigTrajectory& truth, const RigTrajectory& estimate, int sensor) {
-  const auto& poses = estimate.world_from_cam[sensor];
-  eval::TrajectoryMetricsOptions metrics;  // only the ATE is used; an RPE delta every sparsity can meet
-  if (poses.size() >= 2) metrics.rpe_delta_s = 0.5 * (poses.back().timestamp - poses.front().timestamp);
-  return eval::evaluate_trajectory(truth.world_from_cam[sensor], poses, metrics, "ground truth", "tracked").ate_m.rmse;
-}
-
-}  // namespace tracking_eval
 
 namespace {
 
@@ -145,7 +68,7 @@ TableRun run_table2(const TablesOptions& options) {
     const int middle = scan.rig.reference_sensor;
     std::vector<int> all;
     for (int s = 0; s < int(scan.frames.size()); ++s) all.push_back(s);
-    const auto points = mesh_points_in_camera(scan, truth, mesh, all);
+    const auto points = mesh_points_in_camera(scan, truth, mesh, all, 4.0);
 
     FrontendOptions middle_only = tracking.frontend;
     middle_only.sensors = {middle};
@@ -182,7 +105,7 @@ TableRun run_table2(const TablesOptions& options) {
       "ORB-SLAM2 rows are outside systems, not reproduced).");
   run.notes.push_back(
       "Stitched ground-truth depth: noisy depth snapped to the mesh through the true pose (stride 4 px at 320 "
-      "columns), placed with the estimated pose; pose alignment of the evaluated camera(s) (see table2.cpp).");
+      "columns), placed with the estimated pose; pose alignment of the evaluated camera(s) (see tracking_eval.h).");
   run.settings_json = fmt::format(R"({{"tracking": {{"pose_regularisation": {}, "velocity_smoothness": {}, "threads": {}}}}})",
                                   tracking.pose_regularisation, tracking.velocity_smoothness, options.threads);
   return run;
