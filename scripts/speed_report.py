@@ -136,6 +136,18 @@ def growth(results):
     return lines
 
 
+def built_from(build):
+    """The version and source revision the benchmarks were built from (`panoscan --version`)."""
+    try:
+        out = subprocess.run([os.path.join(build, "app", "panoscan"), "--version"], capture_output=True,
+                             text=True, timeout=30)
+        if out.returncode == 0 and out.stdout.strip():
+            return out.stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return "unknown (no build/app/panoscan)"
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--build", default="build")
@@ -155,7 +167,8 @@ def main():
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     md = [f"# Speed report, {now}", "",
           f"Machine: {cpu_model()}, {os.cpu_count()} hardware threads. "
-          f"Command: `/usr/bin/python3 scripts/speed_report.py --build {args.build} --out {args.out}`.", "",
+          f"Built from: {built_from(args.build)}. "
+          f"Command: `/usr/bin/python3 scripts/speed_report.py {' '.join(sys.argv[1:])}`.", "",
           "## Ratios against references measured in the same run", ""] + ratios(results)
     md += ["", "## Growth with the input"] + growth(results)
     md += ["", "## Every benchmark", "", "| program | benchmark | real time (s) |", "|---|---|---:|"]
