@@ -11,6 +11,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <memory>
 
@@ -104,6 +105,34 @@ void BM_PanoramaFuse(benchmark::State& state) {
   state.counters["peak_rss_MiB"] = peak_rss_mib();
 }
 
+// Growth with the panorama size: warping and TSA-L1 optimisation of the same frames at H = 256 ...
+// 2048 (W = 2H). The warping's time follows the frames' pixels; the optimisation's follows the
+// panorama's pixels.
+void BM_PanoramaSize(benchmark::State& state) {
+  const BenchScan& scan = bench_scan();
+  WarpOptions warp;
+  warp.height = int(state.range(0));
+  FusionOptions fusion;
+  fusion.method = DepthFusionMethod::kTsa;
+  double warp_s = 0, fuse_s = 0;
+  std::size_t iterations = 0;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const PanoramaMeasurements m = warp_frames(scan.index, scan.truth, warp);
+    const auto t1 = std::chrono::steady_clock::now();
+    const Panorama p = fuse(m, fusion);
+    const auto t2 = std::chrono::steady_clock::now();
+    warp_s = std::chrono::duration<double>(t1 - t0).count();
+    fuse_s = std::chrono::duration<double>(t2 - t1).count();
+    iterations = p.energy.empty() ? 0 : p.energy.size() - 1;
+  }
+  state.counters["pixels"] = 2.0 * double(warp.height) * double(warp.height);
+  state.counters["warp_s"] = warp_s;
+  state.counters["fuse_s"] = fuse_s;
+  state.counters["solver_iterations"] = double(iterations);
+  state.counters["peak_rss_MiB"] = peak_rss_mib();
+}
+
 void BM_TsdfBaseline(benchmark::State& state) {
   const BenchScan& scan = bench_scan();
   TsdfResult result;
@@ -124,6 +153,13 @@ BENCHMARK(BM_PanoramaFuse)
     ->Arg(int(DepthFusionMethod::kTvCylindrical))
     ->Arg(int(DepthFusionMethod::kTsa))
     ->Arg(int(DepthFusionMethod::kTp))
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->MeasureProcessCPUTime()
+    ->UseRealTime();
+BENCHMARK(BM_PanoramaSize)
+    ->RangeMultiplier(2)
+    ->Range(256, 2048)
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->MeasureProcessCPUTime()

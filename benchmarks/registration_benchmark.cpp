@@ -1,5 +1,7 @@
 // Registration speed (Table 4 methods) against Open3D's and PCL's GICP on the same clouds, same run.
 //   build/benchmarks/registration_benchmark
+#include <map>
+
 #include <benchmark/benchmark.h>
 
 #include "panoscan/recon/outside_references.h"
@@ -17,13 +19,12 @@ struct Pair {
   Rigid3d initial;
 };
 
-// Office panoramas from SO-1 and SO-3 at H = 256 (all valid pixels, ~130k points each), with
-// Handa-model measurement covariances; the initial guess is the truth perturbed by 1 deg / 3 cm.
-const Pair& office_pair() {
-  static const Pair pair = [] {
+// Office panoramas from SO-1 and SO-3 at height H (all valid pixels: ~130k points each at H = 256),
+// with Handa-model measurement covariances; the initial guess is the truth perturbed by 1 deg / 3 cm.
+Pair make_office_pair(int height) {
     const Scene scene = scenes::make_builtin_scene("office");
     const Renderer renderer(scene);
-    const Equirectangular pano{256};
+    const Equirectangular pano{height};
     auto make = [&](const Rigid3d& world_from_pano) {
       const RenderedView view = renderer.render_equirectangular(world_from_pano, pano);
       RegistrationCloud cloud;
@@ -47,7 +48,10 @@ const Pair& office_pair() {
     p.initial = make_rigid(so3_exp(Eigen::Vector3d(0.005, -0.01, 0.015)), Eigen::Vector3d(0.03, -0.02, 0.01)) *
                 world_from_target.inverse() * world_from_source;
     return p;
-  }();
+}
+
+const Pair& office_pair() {
+  static const Pair pair = make_office_pair(256);
   return pair;
 }
 
@@ -74,6 +78,27 @@ void BM_RegisterPclGicp(benchmark::State& state) {
   state.counters["points"] = double(pair.source.points.size());
 }
 
+// Growth with the number of points: GICP (Ours) and Open3D's GICP (the reference, same clouds) on
+// the pair at H = 128, 256, 512 (about 33k, 131k, 524k points). Argument 0: the height; 1: 0 = ours,
+// 1 = Open3D. PCL's GICP is left out here: at 524k points it alone would take most of a minute.
+void BM_RegisterGrowth(benchmark::State& state) {
+  const int height = int(state.range(0));
+  const bool reference = state.range(1) == 1;
+  static std::map<int, Pair> pairs;
+  if (!pairs.count(height)) pairs.emplace(height, make_office_pair(height));
+  const Pair& pair = pairs.at(height);
+  IcpOptions options;
+  options.method = IcpMethod::kGicpMeasured;
+  state.SetLabel(reference ? "open3d-gicp" : to_string(options.method));
+  for (auto _ : state) {
+    if (reference)
+      benchmark::DoNotOptimize(register_open3d_gicp(pair.source, pair.target, pair.initial, IcpOptions{}));
+    else
+      benchmark::DoNotOptimize(register_icp(pair.source, pair.target, pair.initial, options));
+  }
+  state.counters["points"] = double(pair.source.points.size());
+}
+
 void BM_PrepareSurface(benchmark::State& state) {
   RegistrationCloud cloud = office_pair().source;
   for (auto _ : state) prepare_surface(cloud, Eigen::Vector3d::Zero(), SurfaceOptions{});
@@ -85,6 +110,11 @@ void BM_PrepareSurface(benchmark::State& state) {
 BENCHMARK(BM_Register)->DenseRange(0, 6)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_RegisterOpen3dGicp)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_RegisterPclGicp)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_RegisterGrowth)
+    ->ArgsProduct({{128, 256, 512}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1)
+    ->UseRealTime();
 BENCHMARK(BM_PrepareSurface)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 BENCHMARK_MAIN();

@@ -100,12 +100,24 @@ def ratios(results):
                             "speed-up on the same clouds; issue aim >= 10"))
     lines.append(ratio_line("Open3D GICP time / GICP (Ours) time", first_seconds(reg, "BM_RegisterOpen3dGicp"), ours,
                             "speed-up on the same clouds"))
+    # BM_RegisterGrowth/<H>/<0 ours | 1 Open3D>: the same ratio at each panorama size.
+    growth_runs = {}
+    for b in find(reg, "BM_RegisterGrowth/"):
+        parts = b["name"].split("/")
+        growth_runs.setdefault(parts[1], {})[parts[2]] = b
+    for height, pair in sorted(growth_runs.items(), key=lambda item: int(item[0])):
+        if "0" in pair and "1" in pair:
+            points = pair["0"].get("points", 0)
+            lines.append(ratio_line(f"Open3D GICP time / GICP (Ours) time, H = {height}", seconds(pair["1"]),
+                                    seconds(pair["0"]), f"{points / 1000:.0f}k points"))
     pano = results.get("panorama_benchmark", [])
-    warp, fuse, tsdf = first_seconds(pano, "BM_PanoramaWarp"), first_seconds(pano, "BM_PanoramaFuse"), \
-        first_seconds(pano, "BM_TsdfBaseline")
-    lines.append(ratio_line("panorama (warp + optimise) time / TSDF time",
+    # The panorama is the paper's method, TSA-L1 (label "tsa"), not the first fusion benchmark (averaging).
+    tsa = [b for b in find(pano, "BM_PanoramaFuse/") if b.get("label") == "tsa"]
+    warp, tsdf = first_seconds(pano, "BM_PanoramaWarp"), first_seconds(pano, "BM_TsdfBaseline")
+    fuse = seconds(tsa[0]) if tsa else None
+    lines.append(ratio_line("panorama (warp + TSA-L1) time / TSDF time",
                             None if warp is None or fuse is None else warp + fuse, tsdf, "same frames, same run"))
-    pano_mem = first_counter(pano, "BM_PanoramaFuse", "peak_rss_MiB")
+    pano_mem = tsa[0].get("peak_rss_MiB") if tsa else None
     tsdf_mem = first_counter(pano, "BM_TsdfBaseline", "volume_MiB_estimate")
     lines.append(ratio_line("panorama peak RSS / TSDF volume estimate", pano_mem, tsdf_mem, "memory; aim < 1"))
     return lines
