@@ -22,37 +22,40 @@ struct Pair {
 // Office panoramas from SO-1 and SO-3 at height H (all valid pixels: ~130k points each at H = 256),
 // with Handa-model measurement covariances; the initial guess is the truth perturbed by 1 deg / 3 cm.
 Pair make_office_pair(int height) {
-    const Scene scene = scenes::make_builtin_scene("office");
-    const Renderer renderer(scene);
-    const Equirectangular pano{height};
-    auto make = [&](const Rigid3d& world_from_pano) {
-      const RenderedView view = renderer.render_equirectangular(world_from_pano, pano);
-      RegistrationCloud cloud;
-      for (int v = 0; v < pano.height; ++v)
-        for (int u = 0; u < pano.width(); ++u) {
-          const double z = view.depth.at(u, v);
-          if (z <= 0) continue;
-          cloud.points.push_back(pano.direction(u, v) * z);
-          cloud.measurement_covariances.push_back(equirectangular_point_covariance(
-              2 * M_PI * (u + 0.5) / pano.width(), M_PI * (v + 0.5) / pano.height, z, 0.5 * M_PI / pano.height,
-              9.49e-4 * z * z));
-        }
-      prepare_surface(cloud, Eigen::Vector3d::Zero(), SurfaceOptions{});
-      return cloud;
-    };
-    const Rigid3d world_from_target =
-        make_rigid(Eigen::Matrix3d::Identity(), scene.positions[0].floor_point + Eigen::Vector3d(0, 0, 1.1));
-    const Rigid3d world_from_source =
-        make_rigid(so3_exp(Eigen::Vector3d(0, 0, 0.7)), scene.positions[2].floor_point + Eigen::Vector3d(0, 0, 1.1));
-    Pair p{make(world_from_source), make(world_from_target), Rigid3d::Identity()};
-    p.initial = make_rigid(so3_exp(Eigen::Vector3d(0.005, -0.01, 0.015)), Eigen::Vector3d(0.03, -0.02, 0.01)) *
-                world_from_target.inverse() * world_from_source;
-    return p;
+  const Scene scene = scenes::make_builtin_scene("office");
+  const Renderer renderer(scene);
+  const Equirectangular pano{height};
+  auto make = [&](const Rigid3d& world_from_pano) {
+    const RenderedView view = renderer.render_equirectangular(world_from_pano, pano);
+    RegistrationCloud cloud;
+    for (int v = 0; v < pano.height; ++v)
+      for (int u = 0; u < pano.width(); ++u) {
+        const double z = view.depth.at(u, v);
+        if (z <= 0) continue;
+        cloud.points.push_back(pano.direction(u, v) * z);
+        cloud.measurement_covariances.push_back(equirectangular_point_covariance(
+            2 * M_PI * (u + 0.5) / pano.width(), M_PI * (v + 0.5) / pano.height, z, 0.5 * M_PI / pano.height,
+            9.49e-4 * z * z));
+      }
+    prepare_surface(cloud, Eigen::Vector3d::Zero(), SurfaceOptions{});
+    return cloud;
+  };
+  const Rigid3d world_from_target =
+      make_rigid(Eigen::Matrix3d::Identity(), scene.positions[0].floor_point + Eigen::Vector3d(0, 0, 1.1));
+  const Rigid3d world_from_source =
+      make_rigid(so3_exp(Eigen::Vector3d(0, 0, 0.7)), scene.positions[2].floor_point + Eigen::Vector3d(0, 0, 1.1));
+  Pair p{make(world_from_source), make(world_from_target), Rigid3d::Identity()};
+  p.initial = make_rigid(so3_exp(Eigen::Vector3d(0.005, -0.01, 0.015)), Eigen::Vector3d(0.03, -0.02, 0.01)) *
+              world_from_target.inverse() * world_from_source;
+  return p;
 }
 
-const Pair& office_pair() {
-  static const Pair pair = make_office_pair(256);
-  return pair;
+// One pair per height, made on first use and kept for the process's lifetime.
+const Pair& office_pair(int height = 256) {
+  static std::map<int, Pair> pairs;
+  auto it = pairs.find(height);
+  if (it == pairs.end()) it = pairs.emplace(height, make_office_pair(height)).first;
+  return it->second;
 }
 
 void BM_Register(benchmark::State& state) {
@@ -84,9 +87,7 @@ void BM_RegisterPclGicp(benchmark::State& state) {
 void BM_RegisterGrowth(benchmark::State& state) {
   const int height = int(state.range(0));
   const bool reference = state.range(1) == 1;
-  static std::map<int, Pair> pairs;
-  if (!pairs.count(height)) pairs.emplace(height, make_office_pair(height));
-  const Pair& pair = pairs.at(height);
+  const Pair& pair = office_pair(height);
   IcpOptions options;
   options.method = IcpMethod::kGicpMeasured;
   state.SetLabel(reference ? "open3d-gicp" : to_string(options.method));

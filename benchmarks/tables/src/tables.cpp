@@ -117,10 +117,6 @@ std::string cpu_model() {
   return "unknown";
 }
 
-}  // namespace
-
-namespace {
-
 // The scans a table run used and the source revision that rendered each (rig_truth.json's
 // rendered_by), for the JSON record: the cache is keyed by settings, not by code.
 std::mutex scans_used_mutex;
