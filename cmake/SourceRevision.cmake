@@ -1,10 +1,11 @@
 # Writes OUTPUT (a C++ source defining panoscan::source_revision()) from `git describe` of SOURCE_DIR.
 # Run as a script (cmake -P) before every build, so that each JSON record names the commit that made
 # it; configure_file rewrites OUTPUT only when the text changes, so an unchanged revision rebuilds
-# nothing. Outside a git checkout (a source tarball) the revision is "unknown".
+# nothing. Outside a git checkout (a source tarball) the revision is "unknown"; only SOURCE_DIR's own
+# .git counts, so an exported tree inside some other repository does not take that repository's commit.
 find_program(GIT_EXECUTABLE git)
 set(revision "unknown")
-if(GIT_EXECUTABLE)
+if(GIT_EXECUTABLE AND EXISTS ${SOURCE_DIR}/.git)
   execute_process(COMMAND ${GIT_EXECUTABLE} -C ${SOURCE_DIR} describe --always --dirty --abbrev=12
                   OUTPUT_VARIABLE described RESULT_VARIABLE status
                   OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)

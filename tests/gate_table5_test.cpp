@@ -63,13 +63,13 @@ TEST(GateTable5, RecordNamesTheCodeThatMadeItAndItsScans) {
     EXPECT_TRUE(std::filesystem::exists(dir / (std::string("table5") + ext))) << ext;
   std::ifstream in(dir / "table5.json");
   const nlohmann::json record = nlohmann::json::parse(in);
-  EXPECT_EQ(record["version"], project_version());
-  EXPECT_EQ(record["source_revision"], source_revision());
-  EXPECT_EQ(record["settings"]["size"], "quick");
-  EXPECT_EQ(record["settings"]["noise"], "handa");
+  EXPECT_EQ(record.at("version"), project_version());
+  EXPECT_EQ(record.at("source_revision"), source_revision());
+  EXPECT_EQ(record.at("settings").at("size"), "quick");
+  EXPECT_EQ(record.at("settings").at("noise"), "handa");
   // The pair's two scans, rendered in this ctest run (the gate cache is reset first).
-  ASSERT_EQ(record["scans_rendered_by"].size(), 2u) << record["scans_rendered_by"].dump();
-  for (const auto& [folder, revision] : record["scans_rendered_by"].items())
+  ASSERT_EQ(record.at("scans_rendered_by").size(), 2u) << record.at("scans_rendered_by").dump();
+  for (const auto& [folder, revision] : record.at("scans_rendered_by").items())
     EXPECT_EQ(revision, source_revision()) << folder;
   const double map = record["tables"][0]["values"]["Align + MAP"][kPair].get<double>();
   EXPECT_DOUBLE_EQ(map, table5_run().table("Table 5:").get("Align + MAP", kPair));
