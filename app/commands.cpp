@@ -7,18 +7,22 @@
 #include <iostream>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
+#include "panoscan/core/timer.h"
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
 #include "panoscan/eval/cloud_evaluation.h"
+#include "panoscan/eval/error_stats.h"
 #include "panoscan/eval/report.h"
 #include "panoscan/eval/trajectory_evaluation.h"
 #include "panoscan/core/point_cloud.h"
 #include "panoscan/eval/groundtruth.h"
 #include "panoscan/eval/mesh_distance.h"
 #include "panoscan/recon/panorama.h"
+#include "panoscan/recon/placement.h"
 #include "panoscan/recon/scene.h"
 #include "panoscan/recon/tracking.h"
 #include "panoscan/scenes/scenes.h"
@@ -95,7 +99,7 @@ void run_sim(const SimArguments& a, const std::vector<std::string>& defaults) {
   const Simulator simulator(scene, position, options);
   const auto start = std::chrono::steady_clock::now();
   const std::size_t frames = simulator.write_scan(a.out, a.overwrite);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds = seconds_since(start);
   std::cout << fmt::format("wrote {} ({} {}, {} frames from {} cameras at {}x{}, noise {}, {:.1f} s, {:.1f} MB)\n",
                            a.out, scene.name, scene.positions[position].name, frames, simulator.rig().num_sensors(),
                            options.rig.width, options.rig.height, to_string(options.noise.preset), seconds,
@@ -160,17 +164,22 @@ void run_recon_track(const ReconTrackArguments& a) {
   Config config = load_config(a.config_file, a.overrides);
   if (!a.mode.empty()) config.set("track.mode", a.mode);
   if (a.threads >= 0) config.set("threads", std::to_string(a.threads));
+  if (a.allow_unreliable) config.set("track.allow_unreliable", "true");
   const TrackingOptions options = tracking_options_from_config(config);
   config.check_all_used();
   if (fs::exists(a.out) && !a.overwrite)
     throw make_error(a.out, "", "already exists (use --overwrite to replace it)");
   const ScanIndex scan = read_scan_index(a.scan);
   const TrackingResult result = track_scan(scan, options);
+  require_reliable_tracking(result, options, a.scan);
   write_tracking_result(a.out, result, scan.rig);
   const TrackingStats& s = result.stats;
   std::cout << fmt::format("tracked {} ({}): {} iterations, cost {:.4g} -> {:.4g}, {}; wrote {}\n", a.scan,
                            to_string(options.mode), s.iterations, s.initial_cost, s.final_cost,
                            s.converged ? "converged" : "NOT converged", a.out);
+  if (!result.verdict.reliable)
+    std::cout << fmt::format("UNRELIABLE (kept for inspection, marked in rig_estimate.json and tracking_stats.json): {}\n",
+                             result.verdict.first_failure());
 }
 
 namespace {
@@ -179,7 +188,11 @@ namespace {
 RigTrajectory scan_trajectory(const std::string& poses, const std::string& scan_dir, const ScanIndex& scan,
                               const TrackingOptions& tracking) {
   if (poses == "ground-truth") return eval::groundtruth_rig_trajectory(scan_dir);
-  if (poses == "tracked") return track_scan(scan, tracking).trajectory;
+  if (poses == "tracked") {
+    TrackingResult tracked = track_scan(scan, tracking);
+    require_reliable_tracking(tracked, tracking, scan_dir);
+    return std::move(tracked.trajectory);
+  }
   return read_rig_trajectory(poses, scan);
 }
 
@@ -190,9 +203,8 @@ void refuse_existing(const std::string& out, bool overwrite) {
 // Scene frame of a simulated scan from the frame of a reconstruction that used `trajectory` for
 // it: the reference camera's first frame is where both agree.
 Rigid3d scene_from_reconstruction(const std::string& scan_dir, const RigTrajectory& trajectory, int reference) {
-  const RigTrajectory truth = eval::groundtruth_rig_trajectory(scan_dir);
-  return truth.world_from_cam[reference].front().world_from_cam *
-         trajectory.world_from_cam[reference].front().world_from_cam.inverse();
+  return eval::scene_from_reconstruction(eval::groundtruth_rig_trajectory(scan_dir).world_from_cam[reference],
+                                         trajectory.world_from_cam[reference]);
 }
 
 PointCloud transformed(const PointCloud& cloud, const Rigid3d& b_from_a) {
@@ -252,6 +264,10 @@ void run_recon_scene(const ReconSceneArguments& a) {
     write_panorama(output.temp_path() / (scans[k].name + "-panorama"), result.panoramas[k], false);
     write_rig_trajectory(output.temp_path() / (scans[k].name + "-poses"), result.trajectories[k], scans[k].scan.rig);
   }
+  std::vector<std::string> names;
+  for (const SceneScan& s : scans) names.push_back(s.name);
+  write_file_atomic(output.temp_path() / "placement.json",
+                    placement_to_json(names, result.registrations, result.placement).dump(2) + "\n");
   output.commit();
   std::cout << fmt::format("scene of {} scans: {} registrations ({} skipped{}), {} points ({} merged groups); "
                            "times: tracking {:.1f} s, panoramas {:.1f} s, registration {:.1f} s, integration {:.1f} s; "
@@ -303,18 +319,12 @@ void run_demo(const DemoArguments& a) {
     IntegrationOptions integration = options.integration;
     integration.method = method;
     const PointCloud cloud = transformed(integrate_panoramas(points, integration).cloud, scene_from_recon);
-    std::vector<double> d = mesh.distances(cloud.positions);
-    double sum2 = 0, sum = 0;
-    for (double x : d) {
-      sum2 += x * x;
-      sum += x;
-    }
-    std::sort(d.begin(), d.end());
+    const eval::ErrorStats d = eval::summarize_errors(mesh.distances(cloud.positions));
     std::cout << fmt::format("| {} | {} | {:.2f} | {:.2f} | {:.2f} |\n", to_string(method), cloud.size(),
-                             std::sqrt(sum2 / d.size()) * 1e3, sum / d.size() * 1e3, d[d.size() / 2] * 1e3);
+                             d.rmse * 1e3, d.mean * 1e3, d.median * 1e3);
     write_ply_point_cloud(fs::path(a.out) / (std::string("cloud-") + to_string(method) + ".ply"), cloud);
   }
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds = seconds_since(start);
   std::cout << fmt::format("\n{} registration(s); times: tracking {:.1f} s, panoramas {:.1f} s, registration {:.1f} s; "
                            "total {:.0f} s. Scans and clouds in {}/\n",
                            result.edges.size(), result.seconds_tracking, result.seconds_panorama,

@@ -49,6 +49,7 @@ struct ReconTrackArguments {
   std::vector<std::string> overrides;
   int threads = -1;
   bool overwrite = false;
+  bool allow_unreliable = false;  // write a trajectory that fails its self-check (marked as such)
 };
 void run_recon_track(const ReconTrackArguments& arguments);
 
@@ -92,6 +93,7 @@ struct ReconIntegrateArguments {
   std::vector<std::string> poses;      // `recon register` outputs linking them, or "stored"
   std::string method;                  // integration.method: map (default), average, align
   std::string out, config_file;        // out: cloud.ply
+  std::string placement_out;           // optional: the panoramas' poses (placement.h's JSON)
   std::vector<std::string> overrides;
   int threads = -1;
   bool overwrite = false;

@@ -1,7 +1,6 @@
 // `panoscan recon register` and `panoscan recon integrate`: stage 2 of the method (paper §5) on
 // panorama folders written by `recon panorama` or `recon scene`. No algorithm lives here: reading,
 // calling recon/pipeline's stage2.h and recon/integration, reporting.
-#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -14,9 +13,12 @@
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
+#include "panoscan/core/json_file.h"
 #include "panoscan/core/log.h"
 #include "panoscan/core/pose_json.h"
+#include "panoscan/core/timer.h"
 #include "panoscan/recon/panorama.h"
+#include "panoscan/recon/placement.h"
 #include "panoscan/recon/stage2.h"
 
 namespace fs = std::filesystem;
@@ -32,16 +34,6 @@ Config load_stage2_config(const std::string& file, const std::vector<std::string
   return config;
 }
 
-nlohmann::json read_json_file(const std::string& file) {
-  std::ifstream in(file);
-  if (!in) throw make_error(file, "", "cannot open");
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw make_error(file, "", std::string("not valid JSON: ") + e.what());
-  }
-}
-
 // A pose file, or a `recon register` output (its target_from_source).
 Rigid3d read_initial_pose(const std::string& file) {
   const nlohmann::json j = read_json_file(file);
@@ -50,8 +42,31 @@ Rigid3d read_initial_pose(const std::string& file) {
   return pose_from_json(j, file, "");
 }
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+// One `recon register` output as a pose-graph edge between two of `panoramas` (by absolute path; a
+// folder moved since is found by name when that name is unique among them).
+PoseGraphEdge read_registration_edge(const std::string& file, const std::vector<std::string>& panoramas) {
+  const nlohmann::json j = read_json_file(file, "expected an output of recon register");
+  for (const char* field : {"source", "target", "target_from_source"})
+    if (!j.is_object() || !j.contains(field)) throw make_error(file, field, "missing (expected an output of recon register)");
+  if (!j["source"].is_string() || !j["target"].is_string())
+    throw make_error(file, "source", "source and target must be panorama folder paths");
+  auto index_of = [&](const std::string& path, const std::string& field) {
+    const std::string wanted = fs::weakly_canonical(path).string();
+    int found = -1, matches = 0;
+    for (int k = 0; k < int(panoramas.size()); ++k) {
+      const std::string candidate = fs::weakly_canonical(panoramas[k]).string();
+      if (candidate == wanted) return k;
+      if (fs::path(candidate).filename() == fs::path(wanted).filename()) found = k, ++matches;
+    }
+    if (matches == 1) return found;
+    throw make_error(file, field, "'" + path + "' is not one of --panoramas");
+  };
+  PoseGraphEdge e;
+  e.from = index_of(j["source"].get<std::string>(), "source");
+  e.to = index_of(j["target"].get<std::string>(), "target");
+  if (e.from == e.to) throw make_error(file, "target", "registers a panorama with itself");
+  e.to_from_from = pose_from_json(j["target_from_source"], file, "target_from_source");
+  return e;
 }
 
 std::string absolute_path(const std::string& path) { return fs::absolute(path).lexically_normal().string(); }
@@ -70,7 +85,7 @@ void run_recon_register(const ReconRegisterArguments& a) {
   const Panorama source = read_panorama(a.source);
   const Panorama target = read_panorama(a.target);
 
-  const auto start = std::chrono::steady_clock::now();
+  const SteadyTime start = steady_now();
   const PairRegistration r =
       register_panorama_pair(source, target, options, initial ? &*initial : nullptr, a.source, a.target);
   const double seconds = seconds_since(start);
@@ -118,7 +133,6 @@ void run_recon_integrate(const ReconIntegrateArguments& a) {
   const IntegrationOptions options = integration_options_from_config(config);
   // The pixels to use (and their covariances) follow the registration's cloud settings.
   const PanoramaCloudOptions cloud_options = pair_registration_options_from_config(config).cloud;
-  PoseGraphOptions graph_options;
   config.check_all_used();
   if (fs::exists(a.out) && !a.overwrite) throw make_error(a.out, "", "already exists (use --overwrite to replace it)");
   const int n = int(a.panoramas.size());
@@ -129,74 +143,31 @@ void run_recon_integrate(const ReconIntegrateArguments& a) {
   std::vector<Panorama> panoramas;
   for (const std::string& dir : a.panoramas) panoramas.push_back(read_panorama(dir));
 
-  // Poses: the first panorama stays where it is stored; the others follow the registrations.
-  std::vector<Rigid3d> world_from_panorama(n, Rigid3d::Identity());
-  world_from_panorama[0] = panoramas[0].world_from_pano;
+  // Poses: the stored ones, or placed by the registrations (placement.h: the rule recon scene uses).
+  std::vector<Rigid3d> world_from_panorama(n, panoramas[0].world_from_pano);
   const bool stored = a.poses.size() == 1 && a.poses[0] == "stored";
   std::string graph_report;
+  std::optional<nlohmann::json> placement_record;
   if (stored) {
     for (int k = 0; k < n; ++k) world_from_panorama[k] = panoramas[k].world_from_pano;
   } else if (n > 1) {
-    std::vector<std::string> canonical;
-    for (const std::string& dir : a.panoramas) canonical.push_back(fs::weakly_canonical(dir).string());
-    // A registration names its panoramas by absolute path; a folder moved since is found by name
-    // when that name is unique among --panoramas.
-    auto index_of = [&](const std::string& path, const std::string& file, const std::string& field) {
-      const std::string wanted = fs::weakly_canonical(path).string();
-      for (int k = 0; k < n; ++k)
-        if (canonical[k] == wanted) return k;
-      int found = -1, matches = 0;
-      for (int k = 0; k < n; ++k)
-        if (fs::path(canonical[k]).filename() == fs::path(wanted).filename()) found = k, ++matches;
-      if (matches == 1) return found;
-      throw make_error(file, field, "'" + path + "' is not one of --panoramas");
-    };
     std::vector<PoseGraphEdge> edges;
-    for (const std::string& file : a.poses) {
-      const nlohmann::json j = read_json_file(file);
-      for (const char* field : {"source", "target", "target_from_source"})
-        if (!j.is_object() || !j.contains(field))
-          throw make_error(file, field, "missing (expected an output of recon register)");
-      if (!j["source"].is_string() || !j["target"].is_string())
-        throw make_error(file, "source", "source and target must be panorama folder paths");
-      PoseGraphEdge e;
-      e.from = index_of(j["source"].get<std::string>(), file, "source");
-      e.to = index_of(j["target"].get<std::string>(), file, "target");
-      if (e.from == e.to) throw make_error(file, "target", "registers a panorama with itself");
-      e.to_from_from = pose_from_json(j["target_from_source"], file, "target_from_source");
-      edges.push_back(e);
-    }
-    // Chain along the registrations from the first panorama (breadth first).
-    std::vector<bool> placed(n, false);
-    placed[0] = true;
-    for (bool grew = true; grew;) {
-      grew = false;
-      for (const PoseGraphEdge& e : edges) {
-        if (placed[e.to] && !placed[e.from]) {
-          world_from_panorama[e.from] = world_from_panorama[e.to] * e.to_from_from;
-          placed[e.from] = grew = true;
-        } else if (placed[e.from] && !placed[e.to]) {
-          world_from_panorama[e.to] = world_from_panorama[e.from] * e.to_from_from.inverse();
-          placed[e.to] = grew = true;
-        }
-      }
-    }
-    for (int k = 0; k < n; ++k)
-      if (!placed[k])
-        throw make_error(a.panoramas[k], "--poses", "no chain of registrations links it to " + a.panoramas[0]);
-    if (int(edges.size()) > n - 1) {
-      const EdgeDiscrepancy before = worst_edge_discrepancy(world_from_panorama, edges);
-      graph_options.fixed_node = 0;
-      world_from_panorama = optimize_pose_graph(world_from_panorama, edges, graph_options).world_from_node;
-      const EdgeDiscrepancy after = worst_edge_discrepancy(world_from_panorama, edges);
-      graph_report = fmt::format("; pose graph over {} registrations: worst inconsistency {:.3f} deg / {:.1f} mm -> "
-                                 "{:.3f} deg / {:.1f} mm",
-                                 edges.size(), before.rotation_deg, before.translation_m * 1e3, after.rotation_deg,
-                                 after.translation_m * 1e3);
-    }
+    for (const std::string& file : a.poses) edges.push_back(read_registration_edge(file, a.panoramas));
+    const Placement placement = place_panoramas(a.panoramas, panoramas[0].world_from_pano, edges, PlacementOptions());
+    world_from_panorama = placement.world_from_panorama;
+    placement_record = placement_to_json(a.panoramas, edges, placement);
+    if (!placement.dropped.empty())
+      graph_report += fmt::format("; {} registration(s) dropped ({})", placement.dropped.size(), placement.dropped.front());
+    if (placement.pose_graph_used)
+      graph_report += fmt::format("; pose graph over {} registrations: worst inconsistency {:.3f} deg / {:.1f} mm -> "
+                                  "{:.3f} deg / {:.1f} mm",
+                                  edges.size() - placement.dropped.size(), placement.inconsistency_chained.rotation_deg,
+                                  placement.inconsistency_chained.translation_m * 1e3,
+                                  placement.inconsistency_final.rotation_deg,
+                                  placement.inconsistency_final.translation_m * 1e3);
   }
 
-  const auto start = std::chrono::steady_clock::now();
+  const SteadyTime start = steady_now();
   std::vector<PanoramaPoints> points;
   for (int k = 0; k < n; ++k) {
     try {
@@ -210,6 +181,10 @@ void run_recon_integrate(const ReconIntegrateArguments& a) {
   PlyWriteOptions ply;
   ply.comments.push_back(fmt::format("panoscan recon integrate: {} panoramas, {}", n, to_string(options.method)));
   write_ply_point_cloud(a.out, result.cloud, ply);
+  if (!a.placement_out.empty()) {
+    if (!placement_record) placement_record = nlohmann::json{{"format", "panoscan-placement"}, {"version", 1}, {"stored", true}};
+    write_file_atomic(a.placement_out, placement_record->dump(2) + "\n");
+  }
   std::cout << fmt::format("integrated {} panoramas ({}): {} pixels, {} mutual pairs, {} groups of {} pixels -> {} "
                            "points{}; {:.1f} s; wrote {}\n",
                            n, to_string(options.method), result.input_points, result.mutual_pairs, result.groups,

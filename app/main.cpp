@@ -134,6 +134,8 @@ int main(int argc, char** argv) {
   recon_track->add_option("--set", track_args.overrides, "override a config key (repeatable)");
   recon_track->add_option("--threads", track_args.threads, "worker threads (0 = all cores)");
   recon_track->add_flag("--overwrite", track_args.overwrite, "replace existing outputs");
+  recon_track->add_flag("--allow-unreliable", track_args.allow_unreliable,
+                        "write a trajectory that fails its self-check (marked unreliable) instead of refusing");
 
   ReconPanoramaArguments pano_args;
   CLI::App* recon_pano = recon_cmd->add_subcommand("panorama", "build one RGB-D panorama with uncertainty (paper 4.2)");
@@ -183,6 +185,8 @@ int main(int argc, char** argv) {
                               "recon register outputs linking them (pose graph if redundant), or 'stored'");
   recon_integrate->add_option("--method", integrate_args.method, "map (default), average, align");
   recon_integrate->add_option("--out", integrate_args.out, "output cloud (PLY with colour and variance)")->required();
+  recon_integrate->add_option("--placement-out", integrate_args.placement_out,
+                              "also write the panoramas' poses and which registrations were used (JSON)");
   recon_integrate->add_option("--config", integrate_args.config_file, "YAML/JSON config (keys integration.*, registration.*)");
   recon_integrate->add_option("--set", integrate_args.overrides, "override a config key (repeatable)");
   recon_integrate->add_option("--threads", integrate_args.threads, "worker threads (0 = all cores)");

@@ -15,6 +15,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "panoscan/core/timer.h"
 #include "panoscan/core/geometry.h"
 #include "panoscan/core/random.h"
 #include "panoscan/eval/cloud_metrics.h"
@@ -68,7 +69,7 @@ const Fixture& fixture() {
     f->mesh = refine(office.mesh, kMinTriangles);
     const auto start = std::chrono::steady_clock::now();
     f->distance = std::make_unique<MeshDistance>(f->mesh, "office (refined)");
-    f->bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    f->bvh_seconds = seconds_since(start);
     const std::vector<SurfaceSample> samples = sample_surface_uniform(f->mesh, kCloudPoints, 2024);
     Eigen::Vector3f lo = f->mesh.vertices[0], hi = lo;
     for (const auto& v : f->mesh.vertices) {
@@ -143,7 +144,7 @@ void BM_SampledMeshKdTree(benchmark::State& state) {
        sample_surface_uniform(f.mesh, std::size_t(f.distance->surface_area() * samples_per_m2), 99))
     sample_points.push_back(s.point);
   const PointSetDistance index(std::move(sample_points));
-  const double build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - build_start).count();
+  const double build_seconds = seconds_since(build_start);
   std::vector<double> sampled;
   std::size_t done = 0;
   for (auto _ : state) {

@@ -17,6 +17,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include "panoscan/core/timer.h"
 #include "panoscan/eval/groundtruth.h"
 #include "panoscan/recon/panorama.h"
 #include "panoscan/recon/tsdf_baseline.h"
@@ -122,8 +123,8 @@ void BM_PanoramaSize(benchmark::State& state) {
     const auto t1 = std::chrono::steady_clock::now();
     const Panorama p = fuse(m, fusion);
     const auto t2 = std::chrono::steady_clock::now();
-    warp_s = std::chrono::duration<double>(t1 - t0).count();
-    fuse_s = std::chrono::duration<double>(t2 - t1).count();
+    warp_s = seconds_between(t0, t1);
+    fuse_s = seconds_between(t1, t2);
     iterations = p.energy.empty() ? 0 : p.energy.size() - 1;
   }
   state.counters["pixels"] = 2.0 * double(warp.height) * double(warp.height);

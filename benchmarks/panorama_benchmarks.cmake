@@ -8,6 +8,7 @@ target_link_libraries(panorama_benchmark PRIVATE panoscan_recon_panorama panosca
 #   build/benchmarks/panorama_experiments --gtest_filter='PanoramaExperiment*'
 add_executable(panorama_experiments ${CMAKE_SOURCE_DIR}/tests/recon_panorama_test.cpp
                                     ${CMAKE_SOURCE_DIR}/tests/recon_panorama_baselines_test.cpp)
+target_include_directories(panorama_experiments PRIVATE ${CMAKE_SOURCE_DIR}/recon/panorama/src)
 target_compile_definitions(panorama_experiments PRIVATE PANOSCAN_EXPERIMENTS
   PANOSCAN_BINARY_DIR="${CMAKE_BINARY_DIR}" PANOSCAN_SOURCE_DIR="${CMAKE_SOURCE_DIR}")
 target_link_libraries(panorama_experiments PRIVATE panoscan_recon_panorama panoscan_sim panoscan_scenes panoscan_eval

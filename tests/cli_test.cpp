@@ -115,3 +115,36 @@ TEST(Cli, TablesListsItsDriversAndRejectsBadNamesSizesAndNoise) {
   expect_failure_naming(run("tables table6 --noise loud" + out), {"noise.preset", "loud"});
   EXPECT_FALSE(fs::exists(tmp / "out" / "loud" / "table6" / "table6.md"));
 }
+
+// `recon track` refuses a trajectory that fails its self-check: exit code 2, one line naming the
+// scan and the check, nothing written; --allow-unreliable writes it, marked.
+TEST(Cli, ReconTrackRefusesAnUntrustworthyTrajectoryNamingTheScanAndTheCheck) {
+  panoscan::testutil::TempDir tmp("cli-refuse");
+  const std::string small = " --scene office --position SO-1 --resolution 320x240 --every 16 --threads 2";
+  // A quarter of a revolution: tracking may be locally right, but a panoramic scan is one turn.
+  const std::string quarter = (tmp / "quarter").string();
+  ASSERT_EQ(run("sim" + small + " --set motion.turn_deg=90 --out " + quarter).exit_code, 0);
+  const RunResult refused = run("recon track --scan " + quarter + " --out " + (tmp / "quarter-track").string());
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  expect_failure_naming(refused, {quarter, "not trustworthy", "turn:"});
+  EXPECT_FALSE(fs::exists(tmp / "quarter-track"));
+  const RunResult kept =
+      run("recon track --allow-unreliable --scan " + quarter + " --out " + (tmp / "quarter-track").string());
+  ASSERT_EQ(kept.exit_code, 0) << kept.output;
+  EXPECT_NE(kept.output.find("UNRELIABLE"), std::string::npos) << kept.output;
+  std::ifstream estimate(tmp / "quarter-track" / "rig_estimate.json");
+  const std::string text((std::istreambuf_iterator<char>(estimate)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("tracked:full:unreliable"), std::string::npos);
+  // ... and what consumes tracked poses refuses the same way.
+  expect_failure_naming(run("recon panorama --scan " + quarter + " --poses tracked --height 64 --out " +
+                            (tmp / "quarter-pano").string()),
+                        {quarter, "not trustworthy", "turn:"});
+
+  // A calibration 10 degrees off: the extrinsics the data ask for are far from rig.json's.
+  const std::string miscalibrated = (tmp / "miscalibrated").string();
+  ASSERT_EQ(run("sim" + small + " --set rig.calibration_error_deg=10 --out " + miscalibrated).exit_code, 0);
+  const RunResult wrong = run("recon track --scan " + miscalibrated + " --out " + (tmp / "wrong-track").string());
+  EXPECT_EQ(wrong.exit_code, 2) << wrong.output;
+  expect_failure_naming(wrong, {miscalibrated, "not trustworthy", "extrinsics:", "calibration"});
+  EXPECT_FALSE(fs::exists(tmp / "wrong-track"));
+}

@@ -33,6 +33,29 @@ TEST(Geometry, FitRigidTransformRecoversAKnownPoseAndRejectsDegenerateSets) {
   EXPECT_FALSE(fit_rigid_transform({from[0], from[1]}, {to[0], to[1]}, fitted));
 }
 
+TEST(Geometry, FitRigidTransformOfPosesRecoversAKnownTransformOfAnInPlaceRotation) {
+  // Cameras turning about one vertical axis through a fixed point: their positions are one point,
+  // so only the orientations fix the rotation.
+  const Rigid3d truth = make_rigid(so3_exp(Eigen::Vector3d(0.2, -0.4, 1.5)), Eigen::Vector3d(0.5, 1, -2));
+  std::vector<Rigid3d> from, to;
+  for (int i = 0; i < 12; ++i) {
+    from.push_back(make_rigid(so3_exp(Eigen::Vector3d(0, 0, 0.5 * i)), Eigen::Vector3d(0.1, 0.2, 1.1)));
+    to.push_back(truth * from.back());
+  }
+  EXPECT_LT((fit_rigid_transform_of_poses(from, to).matrix() - truth.matrix()).norm(), 1e-12);
+  EXPECT_TRUE(fit_rigid_transform_of_poses({}, {}).isApprox(Rigid3d::Identity()));
+}
+
+TEST(Geometry, ClosestRotationIsAProperRotationAndFlagsRankDeficiency) {
+  bool rank_deficient = true;
+  const Eigen::Matrix3d reflection = Eigen::Vector3d(1, 1, -1).asDiagonal();
+  const Eigen::Matrix3d r = closest_rotation(reflection, &rank_deficient);
+  EXPECT_NEAR(r.determinant(), 1.0, 1e-12);
+  EXPECT_FALSE(rank_deficient);
+  closest_rotation(Eigen::Vector3d(1, 0, 0).asDiagonal(), &rank_deficient);
+  EXPECT_TRUE(rank_deficient);
+}
+
 TEST(Geometry, WrapAngles) {
   EXPECT_NEAR(wrap_two_pi(-0.5), 2 * M_PI - 0.5, 1e-12);
   EXPECT_NEAR(wrap_two_pi(7.0), 7.0 - 2 * M_PI, 1e-12);

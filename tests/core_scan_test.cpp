@@ -353,7 +353,7 @@ TEST(RigJson, BadRigFilesAreRejectedNamingTheField) {
 TEST(RigJson, NonJsonAndNonObjectAndHugeNumbers) {
   std::string message = error_of([] { rig_from_json("{\"format\": ", "scan/rig.json"); });
   EXPECT_THAT(message, HasSubstr("scan/rig.json"));
-  EXPECT_THAT(message, HasSubstr("invalid JSON"));
+  EXPECT_THAT(message, HasSubstr("not valid JSON"));
   message = error_of([] { rig_from_json("[1, 2]", "scan/rig.json"); });
   EXPECT_THAT(message, HasSubstr("scan/rig.json"));
   // JSON cannot hold NaN; an overflowing number is its closest relative.

@@ -11,7 +11,9 @@
 #include <sstream>
 #include <chrono>
 
+#include "panoscan/core/timer.h"
 #include "panoscan/core/error.h"
+#include "panoscan/core/random.h"
 #include "panoscan/eval/groundtruth.h"
 #include "panoscan/eval/mesh_distance.h"
 #include <Eigen/Eigenvalues>
@@ -20,6 +22,7 @@
 #include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/simulator.h"
 #include "test_util.h"
+#include "depth_terms.h"
 
 #include <tbb/task_arena.h>
 
@@ -171,6 +174,79 @@ double near_minus_far_bias(const Panorama& p, const ImageF32& truth, const std::
 // Bound: on planar surfaces the ray-plane intersection is exact, so the error is the depth PNG's
 // quantisation (0.2 mm) plus float rounding; the triangles' curved edges in the panorama and
 // depth discontinuities (a pixel straddling an edge keeps samples of both sides) add outliers.
+// ---- Eq. 5-7 as named terms: each analytic gradient against central differences of its value.
+
+namespace {
+
+depth_terms::Stencil random_stencil(RandomStream& rng, bool all_present) {
+  depth_terms::Stencil st;
+  for (int k = 0; k < depth_terms::kSlots; ++k) {
+    st.present[k] = all_present || k == depth_terms::kAnchor || rng.uniform() < 0.7;
+    st.depth[k] = 1.0 + 3.0 * rng.uniform();
+    // Neighbouring rays a few degrees apart, as on a panorama.
+    const double phi = 0.05 * rng.normal(), theta = 1.2 + 0.05 * rng.normal();
+    st.ray[k] = Eigen::Vector3d(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+    st.sin_theta[k] = std::sin(theta);
+  }
+  return st;
+}
+
+template <typename Term>
+void expect_gradient_matches_differences(const Term& term, depth_terms::Stencil st, const char* name) {
+  const depth_terms::StencilTerm analytic = term(st);
+  for (int k = 0; k < depth_terms::kSlots; ++k) {
+    if (!st.present[k]) {
+      EXPECT_EQ(analytic.gradient[k], 0.0) << name << " slot " << k;
+      continue;
+    }
+    const double h = 1e-6, d0 = st.depth[k];
+    st.depth[k] = d0 + h;
+    const double plus = term(st).smoothed;
+    st.depth[k] = d0 - h;
+    const double minus = term(st).smoothed;
+    st.depth[k] = d0;
+    const double numeric = (plus - minus) / (2 * h);
+    EXPECT_NEAR(analytic.gradient[k], numeric, 1e-6 * std::max(1.0, std::abs(numeric))) << name << " slot " << k;
+    EXPECT_GE(analytic.curvature[k], 0.0) << name << " slot " << k;
+  }
+}
+
+}  // namespace
+
+TEST(PanoramaTerms, EverySmoothnessTermsGradientMatchesCentralDifferences) {
+  RandomStream rng(7, 0, 0, RandomPurpose::kGeneric);
+  for (int trial = 0; trial < 50; ++trial) {
+    const depth_terms::Stencil st = random_stencil(rng, trial % 2 == 0);
+    expect_gradient_matches_differences([](const depth_terms::Stencil& s) { return depth_terms::tv_term(s, true, 1e-4); },
+                                        st, "TV (cylindrical)");
+    expect_gradient_matches_differences([](const depth_terms::Stencil& s) { return depth_terms::tv_term(s, false, 1e-4); },
+                                        st, "TV (radial)");
+    expect_gradient_matches_differences([](const depth_terms::Stencil& s) { return depth_terms::tsa_term(s, 1e-7); }, st,
+                                        "TSA (Eq. 6)");
+    expect_gradient_matches_differences([](const depth_terms::Stencil& s) { return depth_terms::tp_term(s); }, st,
+                                        "TP (Eq. 7)");
+  }
+}
+
+TEST(PanoramaTerms, DataTermGradientAndCurvatureMatchCentralDifferencesAndItsExactValueIsTheL1Sum) {
+  RandomStream rng(8, 0, 0, RandomPurpose::kGeneric);
+  std::vector<PanoramaMeasurement> samples(9);
+  for (auto& s : samples) s.radial_m = float(2.0 + 0.01 * rng.normal());
+  const double eps = 0.002;
+  for (double depth : {1.95, 1.999, 2.0, 2.004, 2.05}) {
+    const auto at = [&](double d) { return depth_terms::data_term(d, samples.data(), samples.data() + samples.size(), eps); };
+    const double h = 1e-6;
+    const depth_terms::DataTerm t = at(depth);
+    EXPECT_NEAR(t.gradient, (at(depth + h).smoothed - at(depth - h).smoothed) / (2 * h), 1e-5) << depth;
+    EXPECT_NEAR(t.curvature, (at(depth + h).gradient - at(depth - h).gradient) / (2 * h), 1e-3 * std::max(1.0, t.curvature))
+        << depth;
+    double l1 = 0;
+    for (const auto& s : samples) l1 += std::abs(depth - double(s.radial_m));
+    EXPECT_NEAR(t.exact, l1, 1e-12);
+    EXPECT_LE(t.smoothed, t.exact);
+  }
+}
+
 TEST(PanoramaWarp, CleanDepthMatchesGroundTruthPanorama) {
   const SimulatedScan& s = office_clean();
   const Panorama p = build(s, 256, DepthFusionMethod::kAverage);
@@ -554,7 +630,7 @@ TEST(PanoramaExperiment, Balance) {
       if (const char* e = std::getenv("PANO_EPS")) f.data_epsilon_m = std::atof(e);
       const auto t0 = std::chrono::steady_clock::now();
       const Panorama p = fuse(m, f);
-      const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const double sec = seconds_since(t0);
       std::cout << name << " x" << mult << " (lambda " << p.lambda << "): rmse " << rmse_mesh(p.to_point_cloud().positions)
                 << " / " << rmse_mesh(p.to_point_cloud(true).positions) << " mm";
       if (!p.energy.empty())

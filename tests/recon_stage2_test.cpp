@@ -235,6 +235,60 @@ TEST(Stage2Commands, RegisterThenIntegrateTwoPanoramaFolders) {
                         {registration.string(), "--overwrite"});
 }
 
+TEST(Stage2Commands, IntegrateAndSceneUseOnePlacementRule) {
+  // Three office panoramas (SO-1, SO-3, SO-2), registered pairwise by `recon register`; `recon
+  // integrate` places them from those registrations, and register_scene_panoramas (what `recon
+  // scene` runs) from its own registrations of the same folders: one rule, one result.
+  testutil::TempDir tmp{"stage2-placement"};
+  const Scene scene = scenes::make_builtin_scene("office");
+  const Renderer renderer(scene);
+  const std::vector<int> positions = {0, 2, 1};
+  const std::vector<double> yaws = {0.0, -0.3, 0.5};
+  std::vector<std::string> folders, names;
+  for (std::size_t k = 0; k < positions.size(); ++k) {
+    names.push_back(scene.positions[positions[k]].name);
+    folders.push_back((tmp / (names.back() + "-pano")).string());
+    write_panorama(folders.back(), synthetic_panorama(renderer, pose_at(scene, positions[k], yaws[k]), 256, 30 + k),
+                   false);
+  }
+  std::vector<std::string> registrations;
+  for (const auto& [source, target] : std::vector<std::pair<int, int>>{{1, 0}, {2, 0}, {2, 1}}) {
+    registrations.push_back((tmp / (std::to_string(source) + "-to-" + std::to_string(target) + ".json")).string());
+    const RunResult r = run_panoscan("recon register --source " + folders[source] + " --target " + folders[target] +
+                                     " --set registration.pixel_stride=2 --out " + registrations.back());
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  const fs::path placement_file = tmp / "placement.json";
+  const RunResult m = run_panoscan("recon integrate --panoramas " + folders[0] + " " + folders[1] + " " + folders[2] +
+                                   " --poses " + registrations[0] + " " + registrations[1] + " " + registrations[2] +
+                                   " --set registration.pixel_stride=2 --placement-out " + placement_file.string() +
+                                   " --out " + (tmp / "cloud.ply").string());
+  ASSERT_EQ(m.exit_code, 0) << m.output;
+  nlohmann::json placement;
+  std::ifstream(placement_file) >> placement;
+  ASSERT_EQ(placement.at("panoramas").size(), 3u);
+
+  std::vector<Panorama> panoramas;
+  for (const std::string& folder : folders) panoramas.push_back(read_panorama(folder));
+  SceneOptions options;
+  options.registration.cloud.pixel_stride = 2;
+  SceneResult result;
+  register_scene_panoramas(panoramas, names, options, result);
+  ASSERT_EQ(result.world_from_panorama.size(), 3u);
+  // The same registrations dropped (in the symmetric office a diagonal pair can register 180
+  // degrees off) and the same decision on the pose graph.
+  EXPECT_EQ(placement.at("dropped").size(), result.placement.dropped.size());
+  EXPECT_EQ(placement.at("pose_graph_used").get<bool>(), result.pose_graph_used);
+  for (std::size_t k = 0; k < 3; ++k) {
+    const Rigid3d from_integrate = pose_from_json(placement["panoramas"][k]["world_from_panorama"], placement_file.string(),
+                                                  "world_from_panorama");
+    EXPECT_LT((from_integrate.matrix() - result.world_from_panorama[k].matrix()).norm(), 1e-9) << names[k];
+    // ... and both near the truth.
+    EXPECT_LT((result.world_from_panorama[k].translation() - panoramas[k].world_from_pano.translation()).norm(), 0.005)
+        << names[k];
+  }
+}
+
 TEST(Stage2Commands, BadInputIsAClearErrorAndWritesNothing) {
   OfficePanoramaFolders f;
   const std::string out = (f.tmp / "out.json").string();

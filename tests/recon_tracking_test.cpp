@@ -2,9 +2,11 @@
 // the full factor graph against its ablations, the axis and the extrinsics against the truth, and
 // bad input. One scan and one front end are shared by the tests of the suite.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <Eigen/SVD>
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -285,6 +287,76 @@ TEST_F(TrackingTest, FramesWithoutFeaturesAreKeptWithTheRegularisingFactors) {
   const double error_without = gap_error(without_eq3, "black, without Eq. 3");
   EXPECT_LT(error_with, 0.02);
   EXPECT_LT(error_with, 0.8 * error_without);  // measured 9.6 vs 14.6 mm
+}
+
+TEST_F(TrackingTest, SelfCheckPassesACorrectTrajectoryAndCatchesCorruptedOnes) {
+  const TrackingResult good = track_with_frontend(*scan_, *frontend_, test_tracking_options());
+  ASSERT_TRUE(good.verdict.checked);
+  EXPECT_TRUE(good.verdict.reliable) << good.verdict.first_failure();
+  for (const char* name : {"finite", "frames", "turn", "monotone", "pairs", "loop", "residuals", "extrinsics", "axis"})
+    EXPECT_TRUE(std::any_of(good.verdict.checks.begin(), good.verdict.checks.end(),
+                            [&](const TrackingCheck& c) { return c.name == name; }))
+        << name;
+  ASSERT_EQ(good.verdict.frames.size(), scan_->frames.size());
+  for (std::size_t s = 0; s < scan_->frames.size(); ++s) ASSERT_EQ(good.verdict.frames[s].size(), scan_->frames[s].size());
+  const nlohmann::json stats = nlohmann::json::parse(tracking_stats_json(good, scan_->rig));
+  EXPECT_TRUE(stats.at("verdict").at("reliable").get<bool>());
+  EXPECT_EQ(stats.at("frames").at(scan_->rig.sensors[0].name).at("confidence").size(), scan_->frames[0].size());
+
+  // The observation counts and residuals the graph had (for re-verifying edited results).
+  std::vector<std::vector<int>> observations(scan_->frames.size());
+  for (std::size_t s = 0; s < scan_->frames.size(); ++s)
+    for (const FrameSupport& f : good.verdict.frames[s]) observations[s].push_back(f.observations);
+  const TrackingOptions options = test_tracking_options();
+  auto failed = [&](const TrackingResult& r) {
+    const TrackingVerdict v = verify_tracking(r, *scan_, *frontend_, observations, {}, options);
+    std::vector<std::string> names;
+    for (const TrackingCheck& c : v.checks)
+      if (!c.passed) names.push_back(c.name);
+    return names;
+  };
+  EXPECT_TRUE(failed(good).empty());
+  auto contains = [](const std::vector<std::string>& names, const std::string& name) {
+    return std::find(names.begin(), names.end(), name) != names.end();
+  };
+
+  // Every frame after the middle turned 40 deg further about the axis: the turn exceeds one
+  // revolution, and the loop-closure pairs (end against start) disagree.
+  TrackingResult turned = good;
+  const Rigid3d& axis = good.trajectory.world_from_axis;
+  const Rigid3d extra = axis * rotation_about(Eigen::Vector3d::UnitZ(), deg2rad(40)) * axis.inverse();
+  for (std::size_t s = 0; s < scan_->frames.size(); ++s)
+    for (std::size_t f = scan_->frames[s].size() / 2; f < scan_->frames[s].size(); ++f) {
+      turned.trajectory.world_from_cam[s][f].world_from_cam = extra * turned.trajectory.world_from_cam[s][f].world_from_cam;
+      turned.azimuth_unwrapped_rad[s][f] += deg2rad(40);
+    }
+  const std::vector<std::string> turned_failures = failed(turned);
+  EXPECT_TRUE(contains(turned_failures, "turn"));
+  EXPECT_TRUE(contains(turned_failures, "loop"));
+
+  // Two reference frames swapped: the azimuth steps back.
+  TrackingResult swapped = good;
+  const int ref = scan_->rig.reference_sensor;
+  std::swap(swapped.azimuth_unwrapped_rad[ref][10], swapped.azimuth_unwrapped_rad[ref][11]);
+  std::swap(swapped.trajectory.world_from_cam[ref][10].world_from_cam, swapped.trajectory.world_from_cam[ref][11].world_from_cam);
+  const std::vector<std::string> swapped_failures = failed(swapped);
+  EXPECT_TRUE(contains(swapped_failures, "monotone"));
+
+  // A wrong calibration: the estimated extrinsics 10 deg away from rig.json's.
+  TrackingResult recalibrated = good;
+  const int outer = ref == 0 ? 1 : 0;
+  recalibrated.trajectory.ref_from_cam[outer] =
+      recalibrated.trajectory.ref_from_cam[outer] * rotation_about(Eigen::Vector3d::UnitX(), deg2rad(10));
+  EXPECT_TRUE(contains(failed(recalibrated), "extrinsics"));
+
+  // No camera observed over half the turn: the frames check.
+  std::vector<std::vector<int>> sparse = observations;
+  for (auto& counts : sparse)
+    for (std::size_t f = counts.size() / 4; f < 3 * counts.size() / 4; ++f) counts[f] = 0;
+  const TrackingVerdict gap = verify_tracking(good, *scan_, *frontend_, sparse, {}, options);
+  EXPECT_FALSE(gap.reliable);
+  EXPECT_EQ(gap.first_failure().rfind("frames:", 0), 0u) << gap.first_failure();
+  EXPECT_THROW(require_reliable_tracking(TrackingResult{good.trajectory, {}, {}, {}, gap}, options, "scan"), Error);
 }
 
 TEST_F(TrackingTest, BadInputGivesClearErrors) {

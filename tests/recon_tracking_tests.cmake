@@ -1,5 +1,11 @@
 # Joint tracking (paper §4.1): front end, factor graph, ablations, bad input, on small simulated scans.
 panoscan_add_test(recon_tracking_test
   SOURCES recon_tracking_test.cpp
-  DEPS panoscan_recon_tracking panoscan_sim panoscan_scenes panoscan_eval
+  DEPS panoscan_recon_tracking panoscan_sim panoscan_scenes panoscan_eval nlohmann_json::nlohmann_json
   LABELS e2e)
+# The factors on their own: Jacobians against numeric differentiation, residuals against their definitions.
+panoscan_add_test(recon_tracking_factors_test
+  SOURCES recon_tracking_factors_test.cpp
+  DEPS panoscan_core Ceres::ceres
+  LABELS recon)
+target_include_directories(recon_tracking_factors_test PRIVATE ${CMAKE_SOURCE_DIR}/recon/tracking/src)

@@ -60,6 +60,29 @@ double wrap_pi(double angle_rad) {
   return wrapped;
 }
 
+Eigen::Matrix3d closest_rotation(const Eigen::Matrix3d& m, bool* rank_deficient) {
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  if (rank_deficient)
+    *rank_deficient = svd.singularValues()[1] <= 1e-12 * std::max(1.0, svd.singularValues()[0]);
+  Eigen::Matrix3d sign = Eigen::Matrix3d::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) sign(2, 2) = -1.0;
+  return svd.matrixU() * sign * svd.matrixV().transpose();
+}
+
+Rigid3d fit_rigid_transform_of_poses(const std::vector<Rigid3d>& from, const std::vector<Rigid3d>& to) {
+  const std::size_t n = std::min(from.size(), to.size());
+  if (n == 0) return Rigid3d::Identity();
+  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d from_centroid = Eigen::Vector3d::Zero(), to_centroid = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < n; ++i) {
+    sum += to[i].linear() * from[i].linear().transpose();
+    from_centroid += from[i].translation();
+    to_centroid += to[i].translation();
+  }
+  const Eigen::Matrix3d rotation = closest_rotation(sum);
+  return make_rigid(rotation, (to_centroid - rotation * from_centroid) / double(n));
+}
+
 bool fit_rigid_transform(const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::Vector3d>& to,
                          Rigid3d& to_from_from) {
   const std::size_t n = from.size();
@@ -73,12 +96,10 @@ bool fit_rigid_transform(const std::vector<Eigen::Vector3d>& from, const std::ve
   mean_to /= double(n);
   Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();
   for (std::size_t i = 0; i < n; ++i) cross += (to[i] - mean_to) * (from[i] - mean_from).transpose();
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
   // Rank < 2 (collinear or coincident points) leaves a rotation about their line free.
-  if (svd.singularValues()[1] <= 1e-12 * std::max(1.0, svd.singularValues()[0])) return false;
-  Eigen::Matrix3d sign = Eigen::Matrix3d::Identity();
-  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) sign(2, 2) = -1.0;
-  const Eigen::Matrix3d rotation = svd.matrixU() * sign * svd.matrixV().transpose();
+  bool rank_deficient = false;
+  const Eigen::Matrix3d rotation = closest_rotation(cross, &rank_deficient);
+  if (rank_deficient) return false;
   to_from_from = make_rigid(rotation, mean_to - rotation * mean_from);
   return true;
 }

@@ -47,6 +47,7 @@
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/pose_json.h"
 #include "panoscan/core/error.h"
+#include "panoscan/core/json_file.h"
 #include "panoscan/core/image_io.h"
 #include "panoscan/core/mesh_io.h"
 
@@ -378,12 +379,7 @@ std::string rig_to_json(const RigInfo& rig) {
 }
 
 RigInfo rig_from_json(const std::string& text, const std::string& origin) {
-  json document;
-  try {
-    document = json::parse(text);
-  } catch (const json::exception& e) {  // parse_error, and out_of_range for numbers like 1e999
-    throw make_error(origin, "", std::string("invalid JSON: ") + e.what());
-  }
+  const json document = parse_json_text(text, origin);
   if (!document.is_object()) throw make_error(origin, "", "expected a JSON object at the top level");
 
   // Format and version first: a file of another version may legitimately lack our fields.

@@ -1,5 +1,6 @@
 // `panoscan eval cloud`: files in, report out (text, JSON, error-coloured PLY).
 
+#include "panoscan/core/timer.h"
 #include "panoscan/eval/cloud_evaluation.h"
 
 #include <chrono>
@@ -24,7 +25,6 @@ namespace panoscan::eval {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 nlohmann::json stats_json(const ErrorStats& s) {
   // NaN (no values) is written as null by nlohmann::json.

@@ -1,5 +1,6 @@
 // Accuracy, completeness and F-score of a reconstructed cloud (definitions in cloud_metrics.h).
 
+#include "panoscan/core/timer.h"
 #include "panoscan/eval/cloud_metrics.h"
 
 #include <algorithm>
@@ -59,9 +60,6 @@ CloudMetrics evaluate_cloud(const MeshDistance& mesh, const PointCloud& cloud, c
   CloudMetrics metrics;
 
   using Clock = std::chrono::steady_clock;
-  auto seconds_since = [](Clock::time_point start) {
-    return std::chrono::duration<double>(Clock::now() - start).count();
-  };
   auto start = Clock::now();
 
   // Accuracy: exact point-to-mesh distances of every point.

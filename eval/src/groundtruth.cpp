@@ -6,6 +6,7 @@
 
 #include "panoscan/core/pose_json.h"
 #include "panoscan/core/error.h"
+#include "panoscan/core/json_file.h"
 #include "panoscan/core/scan.h"
 
 namespace fs = std::filesystem;
@@ -22,17 +23,17 @@ Eigen::Vector3d vector_field(const nlohmann::json& j, const std::string& file, c
 
 }  // namespace
 
+Rigid3d scene_from_reconstruction(const std::vector<StampedPose>& true_poses,
+                                  const std::vector<StampedPose>& reconstructed_poses) {
+  if (true_poses.empty() || reconstructed_poses.empty())
+    throw make_error("", "poses", "the scene alignment needs a first true and a first reconstructed pose");
+  return true_poses.front().world_from_cam * reconstructed_poses.front().world_from_cam.inverse();
+}
+
 RigTrajectory groundtruth_rig_trajectory(const fs::path& scan_dir) {
   const ScanIndex scan = read_scan_index(scan_dir);
   const fs::path truth_path = groundtruth_dir(scan_dir) / "rig_truth.json";
-  std::ifstream in(truth_path);
-  if (!in) throw make_error(truth_path.string(), "", "cannot open (not a simulated scan?)");
-  nlohmann::json truth;
-  try {
-    in >> truth;
-  } catch (const nlohmann::json::exception& e) {
-    throw make_error(truth_path.string(), "", std::string("not valid JSON: ") + e.what());
-  }
+  const nlohmann::json truth = read_json_file(truth_path, "not a simulated scan?");
   const std::string file = truth_path.string();
   try {
     RigTrajectory trajectory;

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/SVD>
 
 #include "panoscan/core/error.h"
 
@@ -67,29 +66,20 @@ std::vector<std::pair<std::size_t, std::size_t>> associate_by_timestamp(const st
   return pairs;
 }
 
-Rigid3d align_rigid(const std::vector<Eigen::Vector3d>& source, const std::vector<Eigen::Vector3d>& target) {
-  if (source.size() != target.size() || source.empty())
-    throw make_error("", "alignment", "needs equally many (>= 1) source and target points");
-  const double n = static_cast<double>(source.size());
-  Eigen::Vector3d mean_source = Eigen::Vector3d::Zero(), mean_target = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < source.size(); ++i) {
-    mean_source += source[i];
-    mean_target += target[i];
-  }
-  mean_source /= n;
-  mean_target /= n;
-  // Cross-covariance Sigma = 1/n sum (target - mu_t)(source - mu_s)^T (Umeyama Eq. 38).
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
-  for (std::size_t i = 0; i < source.size(); ++i)
-    covariance += (target[i] - mean_target) * (source[i] - mean_source).transpose();
-  covariance /= n;
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(covariance, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  // S = diag(1, 1, -1) when det(U) det(V) < 0, so that R is a rotation, not a reflection (Eq. 39-40).
-  Eigen::Matrix3d sign = Eigen::Matrix3d::Identity();
-  if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0) sign(2, 2) = -1.0;
-  const Eigen::Matrix3d rotation = svd.matrixU() * sign * svd.matrixV().transpose();
-  return make_rigid(rotation, mean_target - rotation * mean_source);  // Eq. 41 with c = 1
+namespace {
+
+// The ATE alignment (Umeyama without scale: core's fit_rigid_transform). Positions on one line
+// (or one point) leave a rotation free: then only the centroids are matched, a valid minimiser.
+Rigid3d align_positions(const std::vector<Eigen::Vector3d>& source, const std::vector<Eigen::Vector3d>& target) {
+  Rigid3d target_from_source = Rigid3d::Identity();
+  if (fit_rigid_transform(source, target, target_from_source)) return target_from_source;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < source.size(); ++i) offset += target[i] - source[i];
+  target_from_source.translation() = offset / double(std::max<std::size_t>(1, source.size()));
+  return target_from_source;
 }
+
+}  // namespace
 
 TrajectoryMetrics evaluate_trajectory(const std::vector<StampedPose>& gt, const std::vector<StampedPose>& est,
                                       const TrajectoryMetricsOptions& options, const std::string& gt_origin,
@@ -125,7 +115,7 @@ TrajectoryMetrics evaluate_trajectory(const std::vector<StampedPose>& gt, const 
   // ATE: align the estimated positions onto the ground truth, then the residual positions.
   std::vector<Eigen::Vector3d> est_positions;
   for (const Rigid3d& pose : est_matched) est_positions.push_back(pose.translation());
-  metrics.gt_from_est = options.align ? align_rigid(est_positions, metrics.gt_positions) : Rigid3d::Identity();
+  metrics.gt_from_est = options.align ? align_positions(est_positions, metrics.gt_positions) : Rigid3d::Identity();
   std::vector<double> ate, ate_rotation;
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     const Rigid3d est_aligned = metrics.gt_from_est * est_matched[k];

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "panoscan/core/error.h"
+#include "panoscan/core/json_file.h"
 #include "panoscan/core/image_io.h"
 #include "panoscan/scenes/scenes.h"
 
@@ -99,14 +100,7 @@ Eigen::Vector3d json_point(const nlohmann::json& object, const char* key, const 
 // Reads scanning positions and lights from the positions file (format in scene_loader.h).
 void read_positions_file(const fs::path& path, Scene& scene) {
   const std::string file = path.string();
-  std::ifstream in(path);
-  if (!in) throw make_error(file, "", "cannot open the positions file");
-  nlohmann::json document;
-  try {
-    document = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw make_error(file, "", std::string("not valid JSON: ") + e.what());
-  }
+  const nlohmann::json document = read_json_file(path, "the positions file");
   if (!document.is_object()) throw make_error(file, "", "expected a JSON object");
   if (!document.contains("format") || document["format"] != "panoscan-positions")
     throw make_error(file, "format", "expected \"panoscan-positions\"");

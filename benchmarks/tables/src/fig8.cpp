@@ -126,6 +126,9 @@ TableRun run_fig8(const TablesOptions& options) {
       const RigTrajectory truth = subsample(dense_truth, k);
       const auto points = subsample(dense_points, k);
       const TrackingResult result = track_scan(scan, tracking);
+      // The sweep records every n (where tracking breaks down is its result) and names the failed check.
+      if (!result.verdict.reliable)
+        run.notes.push_back(fmt::format("{} n = {}: self-check UNRELIABLE ({})", label, n, result.verdict.first_failure()));
       double mean_ate = 0;
       for (int s : all) mean_ate += tracking_eval::ate_m(truth, result.trajectory, s) / double(all.size());
       const Rigid3d alignment = tracking_eval::pose_alignment(truth, result.trajectory, all);

@@ -13,6 +13,7 @@
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
 #include "panoscan/core/scan.h"
+#include "panoscan/eval/error_stats.h"
 #include "panoscan/eval/groundtruth.h"
 #include "panoscan/recon/tracking.h"
 #include "panoscan/scenes/scenes.h"
@@ -45,13 +46,18 @@ Panorama cached_panorama(const std::string& label, const TablesOptions& options,
                        label, dir.string()));
   const ScanIndex scan = read_scan_index(scan_dir);
   const RigTrajectory truth = eval::groundtruth_rig_trajectory(scan_dir);
-  const RigTrajectory trajectory = tracked ? track_scan(scan, tracking_options).trajectory : truth;
+  RigTrajectory trajectory = truth;
+  if (tracked) {
+    TrackingResult result = track_scan(scan, tracking_options);
+    require_reliable_tracking(result, tracking_options, label);
+    trajectory = std::move(result.trajectory);
+  }
   Panorama panorama = build_panorama(scan, trajectory, panorama_options).panorama;
   if (tracked) {
     const int reference = scan.rig.reference_sensor;
-    const Rigid3d scene_from_tracking = truth.world_from_cam[reference].front().world_from_cam *
-                                        trajectory.world_from_cam[reference].front().world_from_cam.inverse();
-    panorama.world_from_pano = scene_from_tracking * panorama.world_from_pano;
+    panorama.world_from_pano =
+        eval::scene_from_reconstruction(truth.world_from_cam[reference], trajectory.world_from_cam[reference]) *
+        panorama.world_from_pano;
   }
   write_panorama(dir, panorama, false);
   return panorama;
@@ -106,15 +112,10 @@ std::vector<std::string> pair_labels(const TablesOptions& options) {
 DistanceStats distance_stats(std::vector<double> d) {
   DistanceStats s;
   if (d.empty()) return s;
-  double sum = 0, sum2 = 0;
-  for (double x : d) {
-    sum += x;
-    sum2 += x * x;
-  }
-  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
-  s.rmse_mm = std::sqrt(sum2 / d.size()) * 1e3;
-  s.mean_mm = sum / d.size() * 1e3;
-  s.median_mm = d[d.size() / 2] * 1e3;
+  const eval::ErrorStats stats = eval::summarize_errors(std::move(d));
+  s.rmse_mm = stats.rmse * 1e3;
+  s.mean_mm = stats.mean * 1e3;
+  s.median_mm = stats.median * 1e3;
   return s;
 }
 

@@ -17,9 +17,11 @@
 #include <fmt/format.h>
 
 #include "drivers.h"
+#include "panoscan/core/timer.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/mesh_io.h"
 #include "panoscan/core/scan.h"
+#include "panoscan/eval/error_stats.h"
 #include "panoscan/eval/groundtruth.h"
 #include "panoscan/eval/mesh_distance.h"
 #include "panoscan/recon/surfel_baseline.h"
@@ -48,9 +50,6 @@ const char* const kOursSurfels3 = "Ours (Surfels-3m)";
 const char* const kExStitched = "EX + Open3D odometry (outside stand-in for ORB-SLAM2)";
 const char* const kGtStitched = "GT + Open3D odometry (outside stand-in for ORB-SLAM2)";
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // RMSE (mm) of the points, moved by scene_from_recon, against the mesh.
 double rmse_mm(const eval::MeshDistance& mesh, const std::vector<Eigen::Vector3d>& points, const Rigid3d& scene_from_recon) {
@@ -58,10 +57,7 @@ double rmse_mm(const eval::MeshDistance& mesh, const std::vector<Eigen::Vector3d
   std::vector<Eigen::Vector3d> moved;
   moved.reserve(points.size());
   for (const auto& p : points) moved.push_back(scene_from_recon * p);
-  const std::vector<double> d = mesh.distances(moved);
-  double sum = 0;
-  for (double x : d) sum += x * x;
-  return std::sqrt(sum / double(d.size())) * 1e3;
+  return eval::summarize_errors(mesh.distances(moved)).rmse * 1e3;
 }
 
 // The largest rotation (deg) and translation (mm) error of estimated poses against the truth, both
@@ -133,14 +129,14 @@ TableRun run_table1(const TablesOptions& options) {
     const int reference = scan.rig.reference_sensor;
     const RigTrajectory truth = eval::groundtruth_rig_trajectory(dir);
     const eval::MeshDistance mesh(read_ply_mesh(groundtruth_dir(dir) / "mesh.ply"), label + " mesh");
-    const Rigid3d& scene_from_reference_first = truth.world_from_cam[std::size_t(reference)].front().world_from_cam;
 
     // Ours: tracked poses, fused three ways.
     auto start = std::chrono::steady_clock::now();
     const TrackingResult tracked = track_scan(scan, tracking);
+    require_reliable_tracking(tracked, tracking, label);
     const double tracking_s = seconds_since(start);
-    const Rigid3d scene_from_tracked =
-        scene_from_reference_first * tracked.trajectory.world_from_cam[std::size_t(reference)].front().world_from_cam.inverse();
+    const Rigid3d scene_from_tracked = eval::scene_from_reconstruction(truth.world_from_cam[std::size_t(reference)],
+                                                                       tracked.trajectory.world_from_cam[std::size_t(reference)]);
     start = std::chrono::steady_clock::now();
     const TsdfResult ours_tsdf = build_tsdf_baseline(scan, tracked.trajectory, tsdf);
     table.set(kOursTsdf, label, rmse_mm(mesh, ours_tsdf.vertices.positions, scene_from_tracked));
@@ -173,8 +169,9 @@ TableRun run_table1(const TablesOptions& options) {
       const PrestitchedResult baseline = run_prestitched_baseline(
           scan, work.path() / (ground_truth ? "gt" : "ex"), prestitched, ground_truth ? &truth : nullptr);
       // The stitched camera is the reference camera: its first frame is the odometry's origin.
-      const Rigid3d scene_from_stitched =
-          scene_from_reference_first * baseline.odometry.trajectory.world_from_cam[0].front().world_from_cam.inverse();
+      // The stitched sequence's camera is the reference camera (its first frame).
+      const Rigid3d scene_from_stitched = eval::scene_from_reconstruction(truth.world_from_cam[std::size_t(reference)],
+                                                                          baseline.odometry.trajectory.world_from_cam[0]);
       table.set(ground_truth ? kGtStitched : kExStitched, label,
                 rmse_mm(mesh, baseline.tsdf.vertices.positions, scene_from_stitched));
       const PinholeIntrinsics& k = baseline.stitched.intrinsics;

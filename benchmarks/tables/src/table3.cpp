@@ -21,8 +21,10 @@
 #include <tbb/task_arena.h>
 
 #include "drivers.h"
+#include "panoscan/core/timer.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
+#include "panoscan/eval/error_stats.h"
 #include "panoscan/eval/groundtruth.h"
 #include "panoscan/eval/mesh_distance.h"
 #include "panoscan/eval/panorama_metrics.h"
@@ -38,10 +40,7 @@ namespace {
 
 double rmse_mm(const eval::MeshDistance& mesh, const std::vector<Eigen::Vector3d>& points) {
   if (points.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const std::vector<double> d = mesh.distances(points);
-  double sum = 0;
-  for (const double x : d) sum += x * x;
-  return std::sqrt(sum / double(d.size())) * 1e3;
+  return eval::summarize_errors(mesh.distances(points)).rmse * 1e3;
 }
 
 // The ray-cast radial depth image as world points.
@@ -175,13 +174,13 @@ TableRun run_table3(const TablesOptions& options, const Table3Settings& settings
       warp.height = preset.panorama_height;
       auto start = std::chrono::steady_clock::now();
       const PanoramaMeasurements m = warp_frames(scan, truth, warp);
-      seconds.set("warping", label, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+      seconds.set("warping", label, seconds_since(start));
       for (const PanoramaRow& row : kPanoramaRows) {
         FusionOptions fusion = settings.fusion;
         fusion.method = row.method;
         start = std::chrono::steady_clock::now();
         const Panorama p = fuse(m, fusion);
-        seconds.set(row.name, label, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        seconds.set(row.name, label, seconds_since(start));
         all.set(row.name, label, rmse_mm(mesh, p.to_point_cloud().positions));
         compare(row.name, p.depth);  // warp_frames centres every panorama at truth.world_from_axis
         unflagged.set(row.name, label, rmse_mm(mesh, p.to_point_cloud(true).positions));

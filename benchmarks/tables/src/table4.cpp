@@ -16,6 +16,8 @@
 #include <nlohmann/json.hpp>
 
 #include "drivers.h"
+#include "panoscan/eval/error_stats.h"
+#include "panoscan/core/timer.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
 #include "panoscan/recon/outside_references.h"
@@ -128,9 +130,10 @@ void add_table4(const TablesOptions& options, bool tracked, TableRun& run) {
     // One figure for the pose error where it matters: how far the source's pixels land from where
     // the true pose puts them (rotation errors weigh by the pixels' distance).
     auto displacement_mm = [&](const Rigid3d& target_from_source) {
-      double sum2 = 0;
-      for (const Eigen::Vector3d& p : source_points) sum2 += (target_from_source * p - truth * p).squaredNorm();
-      return std::sqrt(sum2 / double(source_points.size())) * 1e3;
+      std::vector<double> displacement;
+      displacement.reserve(source_points.size());
+      for (const Eigen::Vector3d& p : source_points) displacement.push_back((target_from_source * p - truth * p).norm());
+      return eval::summarize_errors(std::move(displacement)).rmse * 1e3;
     };
 
     for (const Row& row : rows()) {
@@ -152,7 +155,7 @@ void add_table4(const TablesOptions& options, bool tracked, TableRun& run) {
         run.notes.push_back(fmt::format("{} {} ({} poses): failed: {}", pair, row.name, poses, e.what()));
         continue;
       }
-      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const double elapsed = seconds_since(start);
       const Rigid3d& estimate = result.target_from_source;
       rmse.set(row.name, pair, pair_rmse_mm(estimate));
       displacement.set(row.name, pair, displacement_mm(estimate));

@@ -90,13 +90,7 @@ void office_column(const TablesOptions& options, const PairRegistrationOptions& 
     ordered_names.push_back(names[k]);
   }
   register_scene_panoramas(ordered, ordered_names, scene, result);
-  // The chained poses (before the graph), rebuilt from the consecutive edges as register_scene_panoramas does.
-  std::vector<Rigid3d> chained(ordered.size(), ordered[0].world_from_pano);
-  std::vector<PoseGraphEdge> edges;
-  for (const PairEdge& e : result.edges) edges.push_back({e.source, e.target, e.registration.target_from_source});
-  for (std::size_t k = 1; k < ordered.size(); ++k)
-    for (const PairEdge& e : result.edges)
-      if (e.source == int(k) && e.target == int(k) - 1) chained[k] = chained[k - 1] * e.registration.target_from_source;
+  const std::vector<Rigid3d>& chained = result.placement.world_from_panorama_chained;  // before the graph
   auto worst_pose_error = [&](const std::vector<Rigid3d>& poses) {
     EdgeDiscrepancy worst;
     for (std::size_t k = 0; k < poses.size(); ++k) {
@@ -107,8 +101,8 @@ void office_column(const TablesOptions& options, const PairRegistrationOptions& 
     }
     return worst;
   };
-  const EdgeDiscrepancy inconsistency_chained = worst_edge_discrepancy(chained, edges);
-  const EdgeDiscrepancy inconsistency_final = worst_edge_discrepancy(result.world_from_panorama, edges);
+  const EdgeDiscrepancy inconsistency_chained = result.inconsistency_chained;
+  const EdgeDiscrepancy inconsistency_final = result.inconsistency_final;
   const EdgeDiscrepancy error_chained = worst_pose_error(chained), error_final = worst_pose_error(result.world_from_panorama);
   const std::string graph_row = result.pose_graph_used ? "Pose graph" : "Pose graph (not used: no redundant registration)";
   graph.set("Chained registrations", "inconsistency (mm)", inconsistency_chained.translation_m * 1e3);

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "drivers.h"
+#include "panoscan/core/timer.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/scan.h"
 #include "panoscan/recon/scene.h"
@@ -17,9 +18,6 @@ namespace panoscan::tables {
 
 namespace {
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 TableRun run_table6(const TablesOptions& options) {
   const SizePreset preset = size_preset(options.size);
@@ -43,6 +41,7 @@ TableRun run_table6(const TablesOptions& options) {
     for (const std::string& label : {target_label, source_label}) {
       const ScanIndex scan = read_scan_index(cached_scan(label, options));
       TrackingResult tracked = track_scan(scan, scene_options.tracking);
+      require_reliable_tracking(tracked, scene_options.tracking, label);
       const int frames = tracked.stats.frames;
       frontend_ms += tracked.stats.frontend_seconds * 1e3 / std::max(frames, 1);
       tracking_s += tracked.stats.init_seconds + tracked.stats.solve_seconds;

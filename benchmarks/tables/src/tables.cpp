@@ -1,4 +1,5 @@
 // The table registry, the size presets, the scan cache and the report writer.
+#include "panoscan/core/timer.h"
 #include "panoscan/tables/tables.h"
 
 
@@ -17,6 +18,7 @@
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
+#include "panoscan/core/json_file.h"
 #include "panoscan/core/log.h"
 #include "panoscan/core/version.h"
 #include "panoscan/scenes/scenes.h"
@@ -125,8 +127,7 @@ std::map<std::string, std::string> scans_used;
 void record_scan_used(const fs::path& dir) {
   std::string revision = "not recorded (rendered before revisions were recorded)";
   try {
-    std::ifstream in(dir / "groundtruth" / "rig_truth.json");
-    const nlohmann::json truth = nlohmann::json::parse(in);
+    const nlohmann::json truth = read_json_file(dir / "groundtruth" / "rig_truth.json");
     if (truth.contains("rendered_by") && truth["rendered_by"].contains("source_revision"))
       revision = truth["rendered_by"]["source_revision"].get<std::string>();
   } catch (const std::exception&) {
@@ -185,7 +186,7 @@ TableRun run_and_write(const std::string& name, const TablesOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   TableRun run = driver.run(options);
   run.name = name;
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds = seconds_since(start);
 
   const fs::path dir = options.out / name;
   fs::create_directories(dir);

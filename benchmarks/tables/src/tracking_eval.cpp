@@ -4,10 +4,10 @@
 
 #include <cmath>
 
-#include <Eigen/SVD>
 #include <tbb/parallel_for.h>
 
 #include "panoscan/core/error.h"
+#include "panoscan/eval/error_stats.h"
 #include "panoscan/eval/trajectory_metrics.h"
 
 namespace panoscan::tables {
@@ -43,24 +43,13 @@ std::vector<std::vector<std::vector<Eigen::Vector3d>>> mesh_points_in_camera(con
 }
 
 Rigid3d pose_alignment(const RigTrajectory& truth, const RigTrajectory& estimate, const std::vector<int>& sensors) {
-  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d truth_centroid = Eigen::Vector3d::Zero(), estimate_centroid = Eigen::Vector3d::Zero();
-  int count = 0;
+  std::vector<Rigid3d> truth_poses, estimate_poses;
   for (int s : sensors)
     for (std::size_t f = 0; f < estimate.world_from_cam[s].size(); ++f) {
-      const Rigid3d& t = truth.world_from_cam[s][f].world_from_cam;
-      const Rigid3d& e = estimate.world_from_cam[s][f].world_from_cam;
-      sum += t.linear() * e.linear().transpose();
-      truth_centroid += t.translation();
-      estimate_centroid += e.translation();
-      ++count;
+      truth_poses.push_back(truth.world_from_cam[s][f].world_from_cam);
+      estimate_poses.push_back(estimate.world_from_cam[s][f].world_from_cam);
     }
-  if (count == 0) return Rigid3d::Identity();
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d u = svd.matrixU();
-  if ((u * svd.matrixV().transpose()).determinant() < 0) u.col(2) *= -1;
-  const Eigen::Matrix3d rotation = u * svd.matrixV().transpose();
-  return make_rigid(rotation, (truth_centroid - rotation * estimate_centroid) / count);
+  return fit_rigid_transform_of_poses(estimate_poses, truth_poses);
 }
 
 double stitched_rmse_m(const std::vector<std::vector<std::vector<Eigen::Vector3d>>>& points_in_camera,
@@ -73,9 +62,7 @@ double stitched_rmse_m(const std::vector<std::vector<std::vector<Eigen::Vector3d
       for (const Eigen::Vector3d& p : points_in_camera[s][f]) placed.push_back(pose * p);
     }
   if (placed.empty()) return std::nan("");
-  double sum = 0;
-  for (double d : mesh.distances(placed, "stitched ground-truth depth")) sum += d * d;
-  return std::sqrt(sum / double(placed.size()));
+  return eval::summarize_errors(mesh.distances(placed, "stitched ground-truth depth")).rmse;
 }
 
 double ate_m(const RigTrajectory& truth, const RigTrajectory& estimate, int sensor) {

@@ -1,5 +1,6 @@
 // Pre-stitched baselines of Table 1: grouping, the virtual camera, z-buffered rasterisation,
 // Open3D's RGB-D odometry over the stitched sequence and the TSDF fusion.
+#include "panoscan/core/timer.h"
 #include "panoscan/recon/prestitched.h"
 
 #include <algorithm>
@@ -309,7 +310,7 @@ StitchedScanInfo write_stitched_scan(const ScanIndex& scan, const fs::path& out_
       writer.write_frame(0, f.timestamp, f.rgb, depth_to_png_units(f.depth, sensor.depth_scale));
   }
   writer.commit();
-  info.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  info.seconds = seconds_since(t0);
   return info;
 }
 
@@ -402,7 +403,7 @@ StitchedOdometryResult track_stitched_scan(const ScanIndex& stitched, const Stit
     last_step = used;
     previous = current;
   }
-  result.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  result.seconds = seconds_since(t0);
   return result;
 }
 

@@ -9,6 +9,7 @@
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/pose_json.h"
 #include "panoscan/core/error.h"
+#include "panoscan/core/json_file.h"
 
 namespace fs = std::filesystem;
 
@@ -61,14 +62,7 @@ void write_rig_trajectory(const fs::path& dir, const RigTrajectory& trajectory, 
 
 RigTrajectory read_rig_trajectory(const fs::path& dir, const ScanIndex& scan) {
   const fs::path json_path = dir / "rig_estimate.json";
-  std::ifstream in(json_path);
-  if (!in) throw make_error(json_path.string(), "", "cannot open (not a rig trajectory folder?)");
-  nlohmann::json j;
-  try {
-    in >> j;
-  } catch (const nlohmann::json::exception& e) {
-    throw make_error(json_path.string(), "", std::string("not valid JSON: ") + e.what());
-  }
+  const nlohmann::json j = read_json_file(json_path, "not a rig trajectory folder?");
   if (j.value("format", "") != "panoscan-rig-trajectory")
     throw make_error(json_path.string(), "format", "expected \"panoscan-rig-trajectory\"");
   if (j.value("version", 0) != 1)

@@ -1,4 +1,5 @@
 // ORB front end of the joint tracking (paper §4.1); see frontend.h for what it does.
+#include "panoscan/core/timer.h"
 #include "panoscan/recon/frontend.h"
 
 #include <algorithm>
@@ -138,40 +139,11 @@ double point_sigma(const Keypoint& k, const PinholeIntrinsics& intrinsics, const
   return std::sqrt(sigma_z * sigma_z + 2.0 * lateral * lateral);
 }
 
-}  // namespace
-
-FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& options) {
-  options.check();
-  const auto start = std::chrono::steady_clock::now();
-  std::unique_ptr<tbb::global_control> limit;
-  if (options.threads > 0)
-    limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, options.threads);
+// Step 2: the candidate frame pairs in a fixed order: each frame with the previous
+// same_camera_window frames of its camera, the last loop_frames of each camera with its first
+// ones, and each frame with the temporally closest frame of every other camera.
+std::vector<PairTask> candidate_pairs(const ScanIndex& scan, const std::vector<char>& used, const FrontendOptions& options) {
   const int sensor_count = int(scan.rig.sensors.size());
-  std::vector<char> used(sensor_count, options.sensors.empty() ? 1 : 0);
-  for (int s : options.sensors) {
-    if (s < 0 || s >= sensor_count) throw make_error(scan.root.string(), "sensors", "sensor index out of range");
-    used[s] = 1;
-  }
-  FrontendResult result;
-  result.features.resize(sensor_count);
-  std::vector<std::pair<int, int>> frame_list;
-  for (int s = 0; s < sensor_count; ++s) {
-    result.features[s].resize(scan.frames[s].size());
-    if (used[s])
-      for (int f = 0; f < int(scan.frames[s].size()); ++f) frame_list.push_back({s, f});
-  }
-
-  // 1. Features (one task per frame).
-  tbb::parallel_for(std::size_t(0), frame_list.size(), [&](std::size_t k) {
-    const auto [s, f] = frame_list[k];
-    const RgbdFrame frame = load_frame(scan, s, std::size_t(f));
-    result.features[s][f] = extract_features(frame, scan.rig.sensors[s].intrinsics, options);
-  });
-  const auto features_done = std::chrono::steady_clock::now();
-  for (const auto& [s, f] : frame_list)
-    if (int(result.features[s][f].keypoints.size()) < options.min_inliers) ++result.frames_without_features;
-
-  // 2. Candidate pairs in a fixed order.
   std::vector<PairTask> tasks;
   for (int s = 0; s < sensor_count; ++s) {
     if (!used[s]) continue;
@@ -199,68 +171,75 @@ FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& option
         }
       }
 
-  // 3. Matching and verification (one task per pair).
-  std::vector<PairOutcome> outcomes(tasks.size());
-  tbb::parallel_for(std::size_t(0), tasks.size(), [&](std::size_t k) {
-    const PairTask& task = tasks[k];
-    const FrameFeatures& a = result.features[task.sensor_a][task.frame_a];
-    const FrameFeatures& b = result.features[task.sensor_b][task.frame_b];
-    const auto& in_a = scan.rig.sensors[task.sensor_a].intrinsics;
-    const auto& in_b = scan.rig.sensors[task.sensor_b].intrinsics;
-    const bool cross = task.kind == FramePairMatch::Kind::kCrossCamera;
-    const int min_inliers = cross ? options.min_cross_inliers : options.min_inliers;
-    if (int(a.keypoints.size()) < min_inliers || int(b.keypoints.size()) < min_inliers) return;
-    auto point = [](const Keypoint& kp, const PinholeIntrinsics& in) { return in.backproject(kp.u, kp.v, kp.depth); };
-    std::vector<int> subset_a, subset_b;
-    Rigid3d predicted_a_from_b = Rigid3d::Identity();
-    if (cross) {
-      // The narrow overlap band: keypoints that project into the other camera (calibrated extrinsics).
-      predicted_a_from_b = scan.rig.sensors[task.sensor_a].ref_from_cam.inverse() * scan.rig.sensors[task.sensor_b].ref_from_cam;
-      const double m = options.cross_overlap_margin_px;
-      auto inside = [m](const PinholeIntrinsics& in, const Eigen::Vector3d& p) {
-        if (p.z() <= 0.05) return false;
-        const Eigen::Vector2d px = in.project(p);
-        return px.x() >= -m && px.y() >= -m && px.x() <= in.width - 1 + m && px.y() <= in.height - 1 + m;
-      };
-      for (int i = 0; i < int(a.keypoints.size()); ++i)
-        if (inside(in_b, predicted_a_from_b.inverse() * point(a.keypoints[i], in_a))) subset_a.push_back(i);
-      for (int j = 0; j < int(b.keypoints.size()); ++j)
-        if (inside(in_a, predicted_a_from_b * point(b.keypoints[j], in_b))) subset_b.push_back(j);
-      if (int(subset_a.size()) < min_inliers || int(subset_b.size()) < min_inliers) return;
-    } else {
-      subset_a.resize(a.keypoints.size());
-      std::iota(subset_a.begin(), subset_a.end(), 0);
-      subset_b.resize(b.keypoints.size());
-      std::iota(subset_b.begin(), subset_b.end(), 0);
-    }
-    const auto matches = match_descriptors(a, subset_a, b, subset_b, options);
-    if (int(matches.size()) < min_inliers) return;
-    std::vector<Eigen::Vector3d> pa, pb;
-    std::vector<double> thresholds;
-    for (const auto& [i, j] : matches) {
-      pa.push_back(point(a.keypoints[i], in_a));
-      pb.push_back(point(b.keypoints[j], in_b));
-      const double sa = point_sigma(a.keypoints[i], in_a, options), sb = point_sigma(b.keypoints[j], in_b, options);
-      thresholds.push_back(std::max(options.ransac_min_threshold_m, options.ransac_sigmas * std::hypot(sa, sb)));
-    }
-    const std::int64_t key = (std::int64_t(task.sensor_a) * 8 + task.sensor_b) * 100000000LL +
-                             std::int64_t(task.frame_a) * 10000 + (task.frame_b % 10000);
-    RigidRansacResult ransac;
-    if (!rigid_ransac(pa, pb, thresholds, options.ransac_iterations, min_inliers, options.seed, key, &ransac)) return;
-    if (cross) {
-      const Rigid3d deviation = predicted_a_from_b.inverse() * ransac.a_from_b;
-      if (rad2deg(rotation_angle(deviation.linear())) > options.cross_max_deviation_deg ||
-          deviation.translation().norm() > options.cross_max_deviation_m)
-        return;
-    }
-    PairOutcome& out = outcomes[k];
-    out.accepted = true;
-    out.match = {task.sensor_a, task.frame_a, task.sensor_b, task.frame_b, ransac.a_from_b, int(ransac.inliers.size()),
-                 task.kind};
-    for (int i : ransac.inliers) out.keypoint_matches.push_back(matches[i]);
-  });
+  return tasks;
+}
 
-  // 4. Landmarks: union-find over the keypoints of all frames, merged in task order.
+// Step 3: one candidate pair matched (ratio test inside the overlap band for cross-camera pairs)
+// and verified by 3D-3D RANSAC (and, across cameras, against the calibrated extrinsics).
+PairOutcome match_pair(const PairTask& task, const std::vector<std::vector<FrameFeatures>>& features,
+                       const ScanIndex& scan, const FrontendOptions& options) {
+  PairOutcome out;
+  const FrameFeatures& a = features[task.sensor_a][task.frame_a];
+  const FrameFeatures& b = features[task.sensor_b][task.frame_b];
+  const auto& in_a = scan.rig.sensors[task.sensor_a].intrinsics;
+  const auto& in_b = scan.rig.sensors[task.sensor_b].intrinsics;
+  const bool cross = task.kind == FramePairMatch::Kind::kCrossCamera;
+  const int min_inliers = cross ? options.min_cross_inliers : options.min_inliers;
+  if (int(a.keypoints.size()) < min_inliers || int(b.keypoints.size()) < min_inliers) return out;
+  auto point = [](const Keypoint& kp, const PinholeIntrinsics& in) { return in.backproject(kp.u, kp.v, kp.depth); };
+  std::vector<int> subset_a, subset_b;
+  Rigid3d predicted_a_from_b = Rigid3d::Identity();
+  if (cross) {
+    // The narrow overlap band: keypoints that project into the other camera (calibrated extrinsics).
+    predicted_a_from_b = scan.rig.sensors[task.sensor_a].ref_from_cam.inverse() * scan.rig.sensors[task.sensor_b].ref_from_cam;
+    const double m = options.cross_overlap_margin_px;
+    auto inside = [m](const PinholeIntrinsics& in, const Eigen::Vector3d& p) {
+      if (p.z() <= 0.05) return false;
+      const Eigen::Vector2d px = in.project(p);
+      return px.x() >= -m && px.y() >= -m && px.x() <= in.width - 1 + m && px.y() <= in.height - 1 + m;
+    };
+    for (int i = 0; i < int(a.keypoints.size()); ++i)
+      if (inside(in_b, predicted_a_from_b.inverse() * point(a.keypoints[i], in_a))) subset_a.push_back(i);
+    for (int j = 0; j < int(b.keypoints.size()); ++j)
+      if (inside(in_a, predicted_a_from_b * point(b.keypoints[j], in_b))) subset_b.push_back(j);
+    if (int(subset_a.size()) < min_inliers || int(subset_b.size()) < min_inliers) return out;
+  } else {
+    subset_a.resize(a.keypoints.size());
+    std::iota(subset_a.begin(), subset_a.end(), 0);
+    subset_b.resize(b.keypoints.size());
+    std::iota(subset_b.begin(), subset_b.end(), 0);
+  }
+  const auto matches = match_descriptors(a, subset_a, b, subset_b, options);
+  if (int(matches.size()) < min_inliers) return out;
+  std::vector<Eigen::Vector3d> pa, pb;
+  std::vector<double> thresholds;
+  for (const auto& [i, j] : matches) {
+    pa.push_back(point(a.keypoints[i], in_a));
+    pb.push_back(point(b.keypoints[j], in_b));
+    const double sa = point_sigma(a.keypoints[i], in_a, options), sb = point_sigma(b.keypoints[j], in_b, options);
+    thresholds.push_back(std::max(options.ransac_min_threshold_m, options.ransac_sigmas * std::hypot(sa, sb)));
+  }
+  const std::int64_t key = (std::int64_t(task.sensor_a) * 8 + task.sensor_b) * 100000000LL +
+                           std::int64_t(task.frame_a) * 10000 + (task.frame_b % 10000);
+  RigidRansacResult ransac;
+  if (!rigid_ransac(pa, pb, thresholds, options.ransac_iterations, min_inliers, options.seed, key, &ransac)) return out;
+  if (cross) {
+    const Rigid3d deviation = predicted_a_from_b.inverse() * ransac.a_from_b;
+    if (rad2deg(rotation_angle(deviation.linear())) > options.cross_max_deviation_deg ||
+        deviation.translation().norm() > options.cross_max_deviation_m)
+      return out;
+  }
+  out.accepted = true;
+  out.match = {task.sensor_a, task.frame_a, task.sensor_b, task.frame_b, ransac.a_from_b, int(ransac.inliers.size()),
+               task.kind};
+  for (int i : ransac.inliers) out.keypoint_matches.push_back(matches[i]);
+  return out;
+}
+
+// Step 4: the accepted pairs in task order, and the landmarks as union-find tracks over the
+// matched keypoints of all frames (at most one observation per frame).
+void build_landmarks(const std::vector<PairOutcome>& outcomes, FrontendResult& result) {
+  const int sensor_count = int(result.features.size());
   std::vector<std::vector<int>> offset(sensor_count);
   int total = 0;
   for (int s = 0; s < sensor_count; ++s) {
@@ -305,11 +284,52 @@ FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& option
       if (kept.empty() || kept.back().sensor != o.sensor || kept.back().frame != o.frame) kept.push_back(o);
     if (kept.size() >= 2) result.landmarks.push_back(std::move(kept));
   }
+}
+
+}  // namespace
+
+FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& options) {
+  options.check();
+  const auto start = std::chrono::steady_clock::now();
+  std::unique_ptr<tbb::global_control> limit;
+  if (options.threads > 0)
+    limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, options.threads);
+  const int sensor_count = int(scan.rig.sensors.size());
+  std::vector<char> used(sensor_count, options.sensors.empty() ? 1 : 0);
+  for (int s : options.sensors) {
+    if (s < 0 || s >= sensor_count) throw make_error(scan.root.string(), "sensors", "sensor index out of range");
+    used[s] = 1;
+  }
+  FrontendResult result;
+  result.features.resize(sensor_count);
+  std::vector<std::pair<int, int>> frame_list;
+  for (int s = 0; s < sensor_count; ++s) {
+    result.features[s].resize(scan.frames[s].size());
+    if (used[s])
+      for (int f = 0; f < int(scan.frames[s].size()); ++f) frame_list.push_back({s, f});
+  }
+
+  // 1. Features (one task per frame).
+  tbb::parallel_for(std::size_t(0), frame_list.size(), [&](std::size_t k) {
+    const auto [s, f] = frame_list[k];
+    const RgbdFrame frame = load_frame(scan, s, std::size_t(f));
+    result.features[s][f] = extract_features(frame, scan.rig.sensors[s].intrinsics, options);
+  });
+  const auto features_done = std::chrono::steady_clock::now();
+  for (const auto& [s, f] : frame_list)
+    if (int(result.features[s][f].keypoints.size()) < options.min_inliers) ++result.frames_without_features;
+
+  // 2. Candidate pairs in a fixed order; 3. matched and verified (one task per pair); 4. landmarks.
+  const std::vector<PairTask> tasks = candidate_pairs(scan, used, options);
+  std::vector<PairOutcome> outcomes(tasks.size());
+  tbb::parallel_for(std::size_t(0), tasks.size(),
+                    [&](std::size_t k) { outcomes[k] = match_pair(tasks[k], result.features, scan, options); });
+  build_landmarks(outcomes, result);
   const auto done = std::chrono::steady_clock::now();
   const double frames = std::max<std::size_t>(1, frame_list.size());
   result.feature_ms_per_frame = std::chrono::duration<double, std::milli>(features_done - start).count() / frames;
   result.matching_ms_per_frame = std::chrono::duration<double, std::milli>(done - features_done).count() / frames;
-  result.total_seconds = std::chrono::duration<double>(done - start).count();
+  result.total_seconds = seconds_between(start, done);
   return result;
 }
 

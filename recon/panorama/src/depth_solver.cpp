@@ -1,17 +1,20 @@
 // Paper §4.2, fusion: colour by averaging; radial depth by minimising Eq. 5,
 //   E(D) = sum_p sum_k |D_p - z_pk| + lambda_b * sum_p S_p(D),
-// with S the TV (on the cylindrical radius or on the radial depth), TSA (Eq. 6) or TP (Eq. 7) term.
+// with S the TV (on the cylindrical radius or on the radial depth), TSA (Eq. 6) or TP (Eq. 7) term;
+// each term is a named function in depth_terms.h.
 // Solver: L-BFGS with Armijo backtracking on the smoothed energy (|x| -> sqrt(x^2 + eps^2) - eps),
 // started from the per-pixel median (the minimiser of the data term alone).
 // Parallel over pixels with oneTBB; every reduction sums fixed-size chunks in a fixed order, so the
 // result does not depend on the thread count.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <deque>
 #include <sstream>
 
 #include <tbb/parallel_for.h>
 
+#include "depth_terms.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
 #include "panoscan/recon/panorama.h"
@@ -65,85 +68,28 @@ struct DepthProblem {
 
   std::size_t size() const { return pixel.size(); }
 
-  // Value and partials of the smoothness term anchored at unknown i (lambda not applied).
-  // Returns {smoothed, exact}.
-  // h_*: a positive curvature estimate of the term along each unknown (IRLS majoriser for the
-  // norms, Gauss-Newton for TP's squared norms), gathered into the solver's diagonal preconditioner.
-  std::pair<double, double> smoothness_term(const std::vector<double>& x, std::size_t i, double* d_anchor,
-                                            double* d_left, double* d_right, double* d_up, double* d_down,
-                                            double* h_anchor, double* h_left, double* h_right, double* h_up,
-                                            double* h_down) const {
-    *d_anchor = *d_left = *d_right = *d_up = *d_down = 0.0;
-    *h_anchor = *h_left = *h_right = *h_up = *h_down = 0.0;
-    const int l = left[i], r = right[i], u = up[i], d = down[i];
-    switch (method) {
-      case DepthFusionMethod::kAverage:
-        return {0.0, 0.0};
-      case DepthFusionMethod::kTvCylindrical:
-      case DepthFusionMethod::kTvRadial: {
-        // TV: |grad q| with backward differences, q = D sin(theta) (cylindrical) or q = D.
-        const bool cyl = method == DepthFusionMethod::kTvCylindrical;
-        auto scale = [&](int k) { return cyl ? sin_theta[std::size_t(k)] : 1.0; };
-        if (l < 0 && u < 0) return {0.0, 0.0};
-        const double qi = x[i] * scale(int(i));
-        const double dl = l >= 0 ? qi - x[std::size_t(l)] * scale(l) : 0.0;
-        const double du = u >= 0 ? qi - x[std::size_t(u)] * scale(u) : 0.0;
-        const double norm2 = dl * dl + du * du;
-        const double s = std::sqrt(norm2 + tv_eps * tv_eps);
-        *d_anchor = (dl + du) / s * scale(int(i));
-        if (l >= 0) *d_left = -dl / s * scale(l);
-        if (u >= 0) *d_up = -du / s * scale(u);
-        *h_anchor = ((l >= 0) + (u >= 0)) * scale(int(i)) * scale(int(i)) / s;
-        if (l >= 0) *h_left = scale(l) * scale(l) / s;
-        if (u >= 0) *h_up = scale(u) * scale(u) / s;
-        return {s - tv_eps, std::sqrt(norm2)};
-      }
-      case DepthFusionMethod::kTsa: {
-        // Eq. 6: area |dP_-phi x dP_-theta| of the quad spanned with the left and upper neighbours.
-        if (l < 0 || u < 0) return {0.0, 0.0};
-        const Eigen::Vector3d pi = x[i] * ray[i];
-        const Eigen::Vector3d a = pi - x[std::size_t(l)] * ray[std::size_t(l)];
-        const Eigen::Vector3d b = pi - x[std::size_t(u)] * ray[std::size_t(u)];
-        const Eigen::Vector3d c = a.cross(b);
-        const double norm2 = c.squaredNorm();
-        const double s = std::sqrt(norm2 + tsa_eps * tsa_eps);
-        const Eigen::Vector3d g = c / s;
-        const Eigen::Vector3d grad_a = b.cross(g), grad_b = g.cross(a);
-        *d_anchor = (grad_a + grad_b).dot(ray[i]);
-        *d_left = -grad_a.dot(ray[std::size_t(l)]);
-        *d_up = -grad_b.dot(ray[std::size_t(u)]);
-        *h_anchor = ray[i].cross(b - a).squaredNorm() / s;
-        *h_left = ray[std::size_t(l)].cross(b).squaredNorm() / s;
-        *h_up = ray[std::size_t(u)].cross(a).squaredNorm() / s;
-        return {s - tsa_eps, std::sqrt(norm2)};
-      }
-      case DepthFusionMethod::kTp: {
-        // Eq. 7: |dP_-phi x dP_+phi|^2 + |dP_-theta x dP_+theta|^2.
-        const Eigen::Vector3d pi = x[i] * ray[i];
-        double value = 0.0;
-        auto pair_term = [&](int before, int after, double* d_before, double* d_after, double* h_before,
-                             double* h_after) {
-          if (before < 0 || after < 0) return;
-          const Eigen::Vector3d a = pi - x[std::size_t(before)] * ray[std::size_t(before)];
-          const Eigen::Vector3d b = x[std::size_t(after)] * ray[std::size_t(after)] - pi;
-          const Eigen::Vector3d c = a.cross(b);
-          value += c.squaredNorm();
-          const Eigen::Vector3d g = 2.0 * c;
-          const Eigen::Vector3d grad_a = b.cross(g), grad_b = g.cross(a);
-          *d_anchor += (grad_a - grad_b).dot(ray[i]);
-          *d_before += -grad_a.dot(ray[std::size_t(before)]);
-          *d_after += grad_b.dot(ray[std::size_t(after)]);
-          // Gauss-Newton: 2 |dc/dx|^2, c is linear in each depth.
-          *h_anchor += 2.0 * ray[i].cross(a + b).squaredNorm();
-          *h_before += 2.0 * ray[std::size_t(before)].cross(b).squaredNorm();
-          *h_after += 2.0 * a.cross(ray[std::size_t(after)]).squaredNorm();
-        };
-        pair_term(l, r, d_left, d_right, h_left, h_right);
-        pair_term(u, d, d_up, d_down, h_up, h_down);
-        return {value, value};
-      }
+  // The smoothness term S_p of Eq. 5 anchored at unknown i (lambda not applied): TV, TSA (Eq. 6)
+  // or TP (Eq. 7) on the stencil of its neighbouring unknowns (depth_terms.h).
+  depth_terms::StencilTerm smoothness_term(const std::vector<double>& x, std::size_t i) const {
+    using namespace depth_terms;
+    const std::array<int, kSlots> index = {int(i), left[i], right[i], up[i], down[i]};
+    Stencil stencil;
+    for (int k = 0; k < kSlots; ++k) {
+      stencil.present[k] = index[k] >= 0;
+      if (!stencil.present[k]) continue;
+      const std::size_t j = std::size_t(index[k]);
+      stencil.depth[k] = x[j];
+      stencil.ray[k] = ray[j];
+      stencil.sin_theta[k] = sin_theta[j];
     }
-    return {0.0, 0.0};
+    switch (method) {
+      case DepthFusionMethod::kAverage: return {};
+      case DepthFusionMethod::kTvCylindrical: return tv_term(stencil, true, tv_eps);
+      case DepthFusionMethod::kTvRadial: return tv_term(stencil, false, tv_eps);
+      case DepthFusionMethod::kTsa: return tsa_term(stencil, tsa_eps);
+      case DepthFusionMethod::kTp: return tp_term(stencil);
+    }
+    return {};
   }
 
   Parts evaluate(const std::vector<double>& x, std::vector<double>* grad) const {
@@ -155,23 +101,22 @@ struct DepthProblem {
       const std::size_t end = std::min(n, (c + 1) * kChunk);
       for (std::size_t i = c * kChunk; i < end; ++i) {
         // Data term of Eq. 5 over all measurements of the pixel.
-        double g = 0.0, h = 0.0;
         const std::size_t p = pixel[i];
-        for (std::uint64_t k = m->offsets[p]; k < m->offsets[p + 1]; ++k) {
-          const double r = x[i] - double(m->samples[k].radial_m);
-          const double s = std::sqrt(r * r + data_eps * data_eps);
-          sum.smoothed += s - data_eps;
-          sum.data += std::abs(r);
-          g += r / s;
-          h += data_eps * data_eps / (s * s * s);
-        }
-        g_data[i] = g;
-        if (grad) data_curvature[i] = h;
-        const auto [smoothed, exact] =
-            smoothness_term(x, i, &g_anchor[i], &g_left[i], &g_right[i], &g_up[i], &g_down[i], &h_anchor[i],
-                            &h_left[i], &h_right[i], &h_up[i], &h_down[i]);
-        sum.smoothed += lambda * smoothed;
-        sum.smoothness += exact;
+        const depth_terms::DataTerm data = depth_terms::data_term(
+            x[i], m->samples.data() + m->offsets[p], m->samples.data() + m->offsets[p + 1], data_eps);
+        sum.smoothed += data.smoothed;
+        sum.data += data.exact;
+        g_data[i] = data.gradient;
+        if (grad) data_curvature[i] = data.curvature;
+        using depth_terms::kAnchor, depth_terms::kLeft, depth_terms::kRight, depth_terms::kUp, depth_terms::kDown;
+        const depth_terms::StencilTerm smooth = smoothness_term(x, i);
+        g_anchor[i] = smooth.gradient[kAnchor], h_anchor[i] = smooth.curvature[kAnchor];
+        g_left[i] = smooth.gradient[kLeft], h_left[i] = smooth.curvature[kLeft];
+        g_right[i] = smooth.gradient[kRight], h_right[i] = smooth.curvature[kRight];
+        g_up[i] = smooth.gradient[kUp], h_up[i] = smooth.curvature[kUp];
+        g_down[i] = smooth.gradient[kDown], h_down[i] = smooth.curvature[kDown];
+        sum.smoothed += lambda * smooth.smoothed;
+        sum.smoothness += smooth.exact;
       }
       partial[c] = sum;
     });

@@ -4,6 +4,7 @@
 
 #include <tbb/task_arena.h>
 
+#include "panoscan/core/timer.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
@@ -59,8 +60,8 @@ PanoramaResult build_panorama(const ScanIndex& scan, const RigTrajectory& trajec
     const auto t1 = Clock::now();
     result.panorama = fuse(measurements, options.fusion);
     const auto t2 = Clock::now();
-    result.warp_seconds = std::chrono::duration<double>(t1 - t0).count();
-    result.fusion_seconds = std::chrono::duration<double>(t2 - t1).count();
+    result.warp_seconds = seconds_between(t0, t1);
+    result.fusion_seconds = seconds_between(t1, t2);
     result.measurements = measurements.samples.size();
     result.measurement_bytes = measurements.memory_bytes();
     result.frames_used = measurements.frames_used;

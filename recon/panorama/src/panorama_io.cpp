@@ -11,6 +11,7 @@
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/pose_json.h"
 #include "panoscan/core/error.h"
+#include "panoscan/core/json_file.h"
 #include "panoscan/core/image_io.h"
 #include "panoscan/recon/panorama.h"
 
@@ -153,14 +154,7 @@ void write_panorama(const fs::path& dir, const Panorama& panorama, bool overwrit
 
 Panorama read_panorama(const fs::path& dir) {
   const fs::path json_path = dir / "panorama.json";
-  std::ifstream in(json_path);
-  if (!in) throw make_error(json_path.string(), "", "cannot open (not a panorama folder?)");
-  nlohmann::json j;
-  try {
-    in >> j;
-  } catch (const nlohmann::json::exception& e) {
-    throw make_error(json_path.string(), "", std::string("not valid JSON: ") + e.what());
-  }
+  const nlohmann::json j = read_json_file(json_path, "not a panorama folder?");
   if (j.value("format", "") != kPanoramaFormat)
     throw make_error(json_path.string(), "format", std::string("expected \"") + kPanoramaFormat + "\"");
   if (j.value("version", 0) != kPanoramaVersion)

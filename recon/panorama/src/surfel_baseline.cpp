@@ -1,4 +1,5 @@
 // Surfel baseline with ElasticFusion's update rule (see surfel_baseline.h).
+#include "panoscan/core/timer.h"
 #include "panoscan/recon/surfel_baseline.h"
 
 #include <chrono>
@@ -135,7 +136,7 @@ SurfelResult build_surfel_baseline(const ScanIndex& scan, const RigTrajectory& t
     result.radii.push_back(sf.radius);
     result.confidences.push_back(sf.confidence);
   }
-  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  result.seconds = seconds_since(t0);
   return result;
 }
 

@@ -1,4 +1,5 @@
 // TSDF baseline (Tables 1 and 3) through Open3D's hashed TSDF volume.
+#include "panoscan/core/timer.h"
 #include "panoscan/recon/tsdf_baseline.h"
 
 #include <chrono>
@@ -58,8 +59,8 @@ TsdfResult build_tsdf_baseline(const ScanIndex& scan, const RigTrajectory& traje
     }
   }
   for (const Eigen::Vector3i& t : mesh->triangles_) result.mesh.triangles.push_back(t);
-  result.integrate_seconds = std::chrono::duration<double>(t1 - t0).count();
-  result.extract_seconds = std::chrono::duration<double>(t2 - t1).count();
+  result.integrate_seconds = seconds_between(t0, t1);
+  result.extract_seconds = seconds_between(t1, t2);
   return result;
 }
 

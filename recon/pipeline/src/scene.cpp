@@ -1,22 +1,13 @@
 #include "panoscan/recon/scene.h"
 
-#include <chrono>
-
 #include <fmt/format.h>
 
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
+#include "panoscan/core/timer.h"
 
 namespace panoscan {
-
-namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-}  // namespace
 
 void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std::vector<std::string>& names,
                               const SceneOptions& options, SceneResult& result) {
@@ -24,7 +15,7 @@ void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std:
   if (n == 0 || names.size() != panoramas.size()) throw make_error("", "scene", "needs one name per panorama");
   // Stage 2: registrations. The edge (source k -> target j) measures j_from_k between the
   // panorama frames.
-  auto start = std::chrono::steady_clock::now();
+  auto start = steady_now();
   for (int target = 0; target < n; ++target)
     for (int source = target + 1; source < n; ++source) {
       const bool consecutive = source == target + 1;
@@ -43,39 +34,21 @@ void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std:
       }
     }
 
-  // Poses: chain the consecutive edges from panorama 0 (placed at its own stored pose), then
-  // refine with the pose graph when there are more edges than a chain.
-  result.world_from_panorama.assign(n, Rigid3d::Identity());
-  result.world_from_panorama[0] = panoramas[0].world_from_pano;
-  for (int k = 1; k < n; ++k)
-    for (const PairEdge& e : result.edges)
-      if (e.source == k && e.target == k - 1)
-        result.world_from_panorama[k] = result.world_from_panorama[k - 1] * e.registration.target_from_source;
-  // A non-consecutive registration that contradicts the chain (a symmetric room can fool both the
-  // features and the geometry, e.g. a 180-degree turn between diagonal positions) is dropped before
-  // the pose graph, which would otherwise spread its error over every pose.
-  std::vector<PairEdge> kept;
-  for (PairEdge& e : result.edges) {
-    const bool consecutive = e.source == e.target + 1;
-    const EdgeDiscrepancy d = worst_edge_discrepancy(
-        result.world_from_panorama, {{e.source, e.target, e.registration.target_from_source}});
-    if (!consecutive && (d.rotation_deg > options.max_loop_rotation_deg || d.translation_m > options.max_loop_translation_m)) {
-      result.skipped_pairs.push_back(fmt::format("{} -> {}: contradicts the chained registrations by {:.2f} deg, {:.0f} mm",
-                                                 names[e.source], names[e.target], d.rotation_deg, d.translation_m * 1e3));
-      log_warn(fmt::format("skipped: {}", result.skipped_pairs.back()));
-      continue;
-    }
-    kept.push_back(std::move(e));
-  }
-  result.edges = std::move(kept);
+  // Poses: the one placement rule of recon scene and recon integrate (placement.h).
   std::vector<PoseGraphEdge> graph_edges;
   for (const PairEdge& e : result.edges) graph_edges.push_back({e.source, e.target, e.registration.target_from_source});
-  result.inconsistency_chained = worst_edge_discrepancy(result.world_from_panorama, graph_edges);
-  if (int(result.edges.size()) > n - 1) {
-    result.world_from_panorama = optimize_pose_graph(result.world_from_panorama, graph_edges, options.pose_graph).world_from_node;
-    result.pose_graph_used = true;
-  }
-  result.inconsistency_final = worst_edge_discrepancy(result.world_from_panorama, graph_edges);
+  result.placement = place_panoramas(names, panoramas[0].world_from_pano, graph_edges, options.placement);
+  const Placement& placement = result.placement;
+  result.registrations = graph_edges;
+  std::vector<PairEdge> kept;
+  for (std::size_t k = 0; k < result.edges.size(); ++k)
+    if (placement.edge_kept[k]) kept.push_back(std::move(result.edges[k]));
+  result.edges = std::move(kept);
+  result.skipped_pairs.insert(result.skipped_pairs.end(), placement.dropped.begin(), placement.dropped.end());
+  result.world_from_panorama = placement.world_from_panorama;
+  result.pose_graph_used = placement.pose_graph_used;
+  result.inconsistency_chained = placement.inconsistency_chained;
+  result.inconsistency_final = placement.inconsistency_final;
   result.seconds_registration = seconds_since(start);
 }
 
@@ -86,17 +59,19 @@ SceneResult reconstruct_scene(const std::vector<SceneScan>& scans, const SceneOp
 
   // Stage 1 per scanning position.
   for (const SceneScan& input : scans) {
-    auto start = std::chrono::steady_clock::now();
+    auto start = steady_now();
     RigTrajectory trajectory;
     if (input.trajectory) {
       trajectory = *input.trajectory;
       check_rig_trajectory(trajectory, input.scan, input.name);
     } else {
       log_info(fmt::format("{}: tracking", input.name));
-      trajectory = track_scan(input.scan, options.tracking).trajectory;
+      TrackingResult tracked = track_scan(input.scan, options.tracking);
+      require_reliable_tracking(tracked, options.tracking, input.name);
+      trajectory = std::move(tracked.trajectory);
     }
     result.seconds_tracking += seconds_since(start);
-    start = std::chrono::steady_clock::now();
+    start = steady_now();
     log_info(fmt::format("{}: panorama ({})", input.name, to_string(options.panorama.fusion.method)));
     result.panoramas.push_back(build_panorama(input.scan, trajectory, options.panorama).panorama);
     result.seconds_panorama += seconds_since(start);
@@ -108,7 +83,7 @@ SceneResult reconstruct_scene(const std::vector<SceneScan>& scans, const SceneOp
   register_scene_panoramas(result.panoramas, names, options, result);
 
   // Integration.
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = steady_now();
   std::vector<PanoramaPoints> points;
   for (int k = 0; k < n; ++k)
     points.push_back(panorama_integration_points(result.panoramas[k], result.world_from_panorama[k], options.registration.cloud));

@@ -37,11 +37,6 @@ std::vector<std::pair<std::size_t, std::size_t>> associate_by_timestamp(const st
                                                                         const std::vector<StampedPose>& est,
                                                                         double max_time_difference_s);
 
-// The rigid transform T (no scale) minimising sum |target_i - T * source_i|^2 (Umeyama 1991,
-// Eqs. 38-41 with c = 1). Needs >= 3 points, not all on one line, for a unique answer; with
-// fewer the result is a valid but arbitrary minimiser.
-Rigid3d align_rigid(const std::vector<Eigen::Vector3d>& source, const std::vector<Eigen::Vector3d>& target);
-
 struct TrajectoryMetrics {
   std::size_t gt_poses = 0, est_poses = 0, matched_poses = 0;
   Rigid3d gt_from_est = Rigid3d::Identity();  // the ATE alignment (identity when align is off)

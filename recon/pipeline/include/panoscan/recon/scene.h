@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "panoscan/recon/placement.h"
 #include "panoscan/recon/stage2.h"
 #include "panoscan/recon/tracking.h"
 
@@ -27,15 +28,12 @@ struct SceneOptions {
   PanoramaOptions panorama;
   PairRegistrationOptions registration;
   IntegrationOptions integration;
-  PoseGraphOptions pose_graph;
   // Pairs of scans registered: consecutive scans (in the order given) must register; every
   // other pair is tried too and used when it succeeds (redundancy for the pose graph).
   bool register_all_pairs = true;
-  // A non-consecutive registration is dropped (listed in skipped_pairs) when it disagrees with the
-  // chained consecutive ones by more than this: drift along a short chain is millimetres and tenths
-  // of a degree, a wrong registration (a symmetric room) metres and tens of degrees.
-  double max_loop_rotation_deg = 5.0;
-  double max_loop_translation_m = 0.1;
+  // How the registrations place the panoramas (placement.h): a registration that contradicts the
+  // chain of consecutive ones is dropped and listed in skipped_pairs.
+  PlacementOptions placement;
 };
 
 struct PairEdge {
@@ -47,7 +45,11 @@ struct SceneResult {
   std::vector<RigTrajectory> trajectories;
   std::vector<Panorama> panoramas;
   std::vector<Rigid3d> world_from_panorama;
-  std::vector<PairEdge> edges;
+  std::vector<PairEdge> edges;  // the registrations kept by the placement
+  // Every registration that succeeded (as pose-graph edges) and the placement made of them; the
+  // fields around are its figures (world_from_panorama = placement.world_from_panorama).
+  std::vector<PoseGraphEdge> registrations;
+  Placement placement;
   std::vector<std::string> skipped_pairs;  // "SO-1 -> SO-4: <reason>"
   bool pose_graph_used = false;
   // The worst pairwise inconsistency (pose_graph.h) of the chained poses and of the final ones.
@@ -57,10 +59,11 @@ struct SceneResult {
 };
 
 // Stage 2's poses for built panoramas: pairwise registrations (consecutive ones must succeed, the
-// other pairs are used when they do and options.register_all_pairs, and agree with the chain within
-// options.max_loop_*), poses chained from the first panorama (which stays at its world_from_pano),
-// then the pose graph when the registrations are redundant. Fills edges, skipped_pairs, world_from_panorama, pose_graph_used, the inconsistencies
-// and seconds_registration of `result`. Throws Error naming a consecutive pair that fails.
+// other pairs are tried when options.register_all_pairs), then place_panoramas (placement.h) from
+// the first panorama (which stays at its world_from_pano). Fills edges (the kept ones),
+// skipped_pairs (failed and dropped), world_from_panorama(_chained), pose_graph_used, the
+// inconsistencies and seconds_registration of `result`. Throws Error naming a consecutive pair
+// that fails.
 void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std::vector<std::string>& names,
                               const SceneOptions& options, SceneResult& result);
 

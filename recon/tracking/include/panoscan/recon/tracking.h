@@ -53,6 +53,27 @@ enum class TrackingMode {
   kFixedExtrinsics,  // Eq. 1-3 with the calibrated extrinsics held fixed
 };
 
+// The self-check of a tracked trajectory (verify_tracking). Keys track.verify.*. Every limit is a
+// physical bound of the set-up (one revolution in one direction on a rotator whose axis is near
+// the cameras' up), not a figure of a particular scan.
+struct TrackingVerifyOptions {
+  bool enabled = true;                    // track.verify.enabled: false = no checks, always "reliable"
+  int min_frame_observations = 6;         // track.verify.min_frame_observations: a frame with fewer is unsupported
+  double max_unsupported_turn_deg = 45;   // track.verify.max_unsupported_turn_deg: longest turn no camera supports (1/8 rev.)
+  double min_turn_deg = 340;              // track.verify.min_turn_deg: the scan must cover one revolution ...
+  double max_turn_deg = 380;              // track.verify.max_turn_deg: ... and not much more
+  double max_backward_step_deg = 2.0;     // track.verify.max_backward_step_deg: azimuth steps against the turn
+  double pair_rotation_tolerance_deg = 2.0;  // track.verify.pair_rotation_tolerance_deg: tracked vs verified pairs
+  double pair_translation_tolerance_m = 0.05;  // track.verify.pair_translation_tolerance_m
+  double min_consistent_pair_share = 0.8;  // track.verify.min_consistent_pair_share
+  double max_outlier_share = 0.2;         // track.verify.max_outlier_share: whitened residual > 3 huber_delta
+  double max_extrinsics_change_deg = 3.0;  // track.verify.max_extrinsics_change_deg: T_c vs the calibration
+  double max_extrinsics_change_m = 0.03;  // track.verify.max_extrinsics_change_m
+  double max_axis_tilt_deg = 30.0;        // track.verify.max_axis_tilt_deg: axis vs the reference camera's up (-y)
+
+  void check(const std::string& origin) const;
+};
+
 struct TrackingOptions {
   TrackingMode mode = TrackingMode::kFull;      // track.mode: full | ba-only | single-camera | fixed-extrinsics
   bool pose_regularisation = true;              // track.pose_regularisation: Eq. 2 on/off (ablation)
@@ -91,6 +112,9 @@ struct TrackingOptions {
   std::string linear_solver = "sparse_schur";   // track.linear_solver: sparse_schur | sparse_normal_cholesky
   int threads = 0;                              // threads (0 = all cores)
   FrontendOptions frontend;                     // frontend.* keys
+  TrackingVerifyOptions verify;                 // track.verify.* keys
+  // track.allow_unreliable: require_reliable_tracking warns instead of refusing (for inspection).
+  bool allow_unreliable = false;
 
   void check(const std::string& origin = "<tracking options>") const;
 };
@@ -116,11 +140,62 @@ struct TrackingStats {
   int same_camera_pairs = 0, cross_camera_pairs = 0, loop_pairs = 0, frames_without_features = 0;
 };
 
+// One check of verify_tracking: its figure against its limit.
+struct TrackingCheck {
+  std::string name;    // frames, turn, monotone, pairs, loop, residuals, extrinsics, axis, finite
+  bool passed = true;
+  double value = 0.0, limit = 0.0;
+  std::string detail;  // one line: what was measured and why it matters
+};
+
+// Per frame of each camera: its support by the data.
+struct FrameSupport {
+  int observations = 0;     // Eq. 1 observations (0 for cameras not in the graph)
+  double gap_deg = 0.0;     // turn from this frame to the nearest instant some camera supports
+  double confidence = 0.0;  // min(1, observations / min_frame_observations) * max(0, 1 - gap / max gap)
+};
+
+struct TrackingVerdict {
+  bool checked = false;  // false: verification disabled
+  bool reliable = true;
+  std::vector<TrackingCheck> checks;
+  std::vector<std::vector<FrameSupport>> frames;  // per sensor, per frame
+  // "check: detail" of the first failed check ("" when reliable).
+  std::string first_failure() const;
+};
+
 struct TrackingResult {
   RigTrajectory trajectory;                       // every frame of the scan, source "tracked:<mode>"
   std::vector<std::vector<double>> azimuth_rad;   // per sensor, per frame, in [0, 2 pi)
+  std::vector<std::vector<double>> azimuth_unwrapped_rad;  // the same, unwrapped (continuous)
   TrackingStats stats;
+  TrackingVerdict verdict;
 };
+
+// Checks a solution against what a rotator scan must satisfy and what the front end measured
+// independently of the graph (paper §4.1 leaves this to the user; a testbed cannot):
+//  - frames: no stretch of more than max_unsupported_turn_deg where no camera has
+//    min_frame_observations observations (there Eq. 2-3 alone extrapolate the azimuth);
+//  - turn: the reference camera turns one revolution (min/max_turn_deg);
+//  - monotone: its azimuth never steps back by more than max_backward_step_deg;
+//  - pairs, loop: the tracked relative poses of the front end's verified frame pairs (same camera;
+//    loop closure) agree with the pairs' RANSAC poses within the pair tolerances, for at least
+//    min_consistent_pair_share of the pairs (every loop pair);
+//  - residuals: at most max_outlier_share of the observations are gross outliers;
+//  - extrinsics: each estimated T_c within max_extrinsics_change_* of the calibration (rig.json);
+//  - axis: the rotation axis within max_axis_tilt_deg of the reference camera's up;
+//  - finite: every pose finite.
+// `observations`: per sensor, per frame, the Eq. 1 observations in the graph (empty for sensors
+// outside it); `residual_norms`: the whitened norm of every observation residual.
+TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& scan, const FrontendResult& frontend,
+                                const std::vector<std::vector<int>>& observations,
+                                const std::vector<double>& residual_norms, const TrackingOptions& options);
+
+// Throws Error "<scan_name>: tracking: not trustworthy: <first failed check>" when the verdict is
+// unreliable (the stage refuses: exit code 2 in the program), unless options.allow_unreliable,
+// which logs a warning instead. Every stage that consumes tracked poses calls it.
+void require_reliable_tracking(const TrackingResult& result, const TrackingOptions& options,
+                               const std::string& scan_name);
 
 // The one-call entry: front end + factor graph. Throws Error for unusable input (no reference
 // frames, a reference camera without any verified frame pair); reports non-convergence in stats.
@@ -137,8 +212,12 @@ TrackingOptions tracking_options_from_config(Config& config);
 const char* to_string(TrackingMode mode);
 TrackingMode tracking_mode_from_string(const std::string& text, const std::string& origin);
 
-// Writes the rig trajectory (write_rig_trajectory) plus tracking_stats.json, atomically.
+// Writes the rig trajectory (write_rig_trajectory) plus tracking_stats.json (with the verdict and
+// the per-frame support), atomically. An unreliable result is written with its trajectory's
+// source marked ":unreliable".
 void write_tracking_result(const std::filesystem::path& dir, const TrackingResult& result, const RigInfo& rig);
 std::string tracking_stats_json(const TrackingStats& stats);
+// The stats plus "verdict" (every check) and "frames" (per camera: observations, gap_deg, confidence).
+std::string tracking_stats_json(const TrackingResult& result, const RigInfo& rig);
 
 }  // namespace panoscan

@@ -1,0 +1,143 @@
+// Internal to panoscan_recon_panorama (and its tests): the terms of the panorama depth energy,
+//   Eq. 5:  E(D) = sum_p sum_k |D_p - z_pk| + lambda_b * sum_p S_p(D),
+// one named function per term, each evaluated at one pixel (the "anchor") and its stencil of
+// neighbours. The solver (depth_solver.cpp) sums them over all pixels and gathers the per-slot
+// derivatives into the gradient.
+//
+// Every |.| is smoothed for the gradient-based solver: |x| -> sqrt(x^2 + eps^2) - eps (the
+// "smoothed" value; "exact" is the unsmoothed one that the energy log reports). Besides the
+// gradient each term returns a positive curvature estimate per slot (IRLS majoriser of the norms,
+// Gauss-Newton for TP's squared norms), the diagonal preconditioner of L-BFGS.
+#pragma once
+
+#include <array>
+#include <cmath>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "panoscan/recon/panorama.h"
+
+namespace panoscan::depth_terms {
+
+// The data term of Eq. 5 at one pixel: sum_k |D - z_k| over its measurements.
+struct DataTerm {
+  double smoothed = 0.0, exact = 0.0;
+  double gradient = 0.0;   // d smoothed / d D
+  double curvature = 0.0;  // d^2 smoothed / d D^2
+};
+
+inline DataTerm data_term(double depth, const PanoramaMeasurement* begin, const PanoramaMeasurement* end, double eps) {
+  DataTerm t;
+  for (const PanoramaMeasurement* m = begin; m != end; ++m) {
+    const double r = depth - double(m->radial_m);
+    const double s = std::sqrt(r * r + eps * eps);
+    t.smoothed += s - eps;
+    t.exact += std::abs(r);
+    t.gradient += r / s;
+    t.curvature += eps * eps / (s * s * s);
+  }
+  return t;
+}
+
+// The stencil of a smoothness term: the anchor pixel and its four neighbours (azimuth periodic),
+// each with its depth, unit ray and sin(theta) (theta the polar angle from the zenith).
+enum Slot { kAnchor = 0, kLeft, kRight, kUp, kDown, kSlots };
+
+struct Stencil {
+  std::array<bool, kSlots> present{};
+  std::array<double, kSlots> depth{};
+  std::array<Eigen::Vector3d, kSlots> ray;
+  std::array<double, kSlots> sin_theta{};
+
+  Eigen::Vector3d point(int slot) const { return depth[slot] * ray[slot]; }
+};
+
+// A smoothness term's value and derivatives with respect to the depths of the stencil's slots
+// (absent neighbours get zeros).
+struct StencilTerm {
+  double smoothed = 0.0, exact = 0.0;
+  std::array<double, kSlots> gradient{};
+  std::array<double, kSlots> curvature{};
+};
+
+// Total variation with backward differences, |(q_p - q_left, q_p - q_up)|, on the cylindrical
+// radius q = D sin(theta) (`cylindrical`, the paper's TV-L1 on the cylinder) or on the radial depth
+// q = D. Zero at a pixel with neither a left nor an upper neighbour.
+inline StencilTerm tv_term(const Stencil& st, bool cylindrical, double eps) {
+  StencilTerm t;
+  const bool l = st.present[kLeft], u = st.present[kUp];
+  if (!l && !u) return t;
+  auto scale = [&](int slot) { return cylindrical ? st.sin_theta[slot] : 1.0; };
+  const double qi = st.depth[kAnchor] * scale(kAnchor);
+  const double dl = l ? qi - st.depth[kLeft] * scale(kLeft) : 0.0;
+  const double du = u ? qi - st.depth[kUp] * scale(kUp) : 0.0;
+  const double norm2 = dl * dl + du * du;
+  const double s = std::sqrt(norm2 + eps * eps);
+  t.smoothed = s - eps;
+  t.exact = std::sqrt(norm2);
+  t.gradient[kAnchor] = (dl + du) / s * scale(kAnchor);
+  t.curvature[kAnchor] = (int(l) + int(u)) * scale(kAnchor) * scale(kAnchor) / s;
+  if (l) {
+    t.gradient[kLeft] = -dl / s * scale(kLeft);
+    t.curvature[kLeft] = scale(kLeft) * scale(kLeft) / s;
+  }
+  if (u) {
+    t.gradient[kUp] = -du / s * scale(kUp);
+    t.curvature[kUp] = scale(kUp) * scale(kUp) / s;
+  }
+  return t;
+}
+
+// Eq. 6, total surface area: the area |dP_-phi x dP_-theta| of the quad spanned by the anchor's
+// point and its left and upper neighbours' points. Needs both neighbours (else zero).
+inline StencilTerm tsa_term(const Stencil& st, double eps) {
+  StencilTerm t;
+  if (!st.present[kLeft] || !st.present[kUp]) return t;
+  const Eigen::Vector3d pi = st.point(kAnchor);
+  const Eigen::Vector3d a = pi - st.point(kLeft);
+  const Eigen::Vector3d b = pi - st.point(kUp);
+  const Eigen::Vector3d c = a.cross(b);
+  const double norm2 = c.squaredNorm();
+  const double s = std::sqrt(norm2 + eps * eps);
+  const Eigen::Vector3d g = c / s;
+  const Eigen::Vector3d grad_a = b.cross(g), grad_b = g.cross(a);
+  t.smoothed = s - eps;
+  t.exact = std::sqrt(norm2);
+  t.gradient[kAnchor] = (grad_a + grad_b).dot(st.ray[kAnchor]);
+  t.gradient[kLeft] = -grad_a.dot(st.ray[kLeft]);
+  t.gradient[kUp] = -grad_b.dot(st.ray[kUp]);
+  t.curvature[kAnchor] = st.ray[kAnchor].cross(b - a).squaredNorm() / s;
+  t.curvature[kLeft] = st.ray[kLeft].cross(b).squaredNorm() / s;
+  t.curvature[kUp] = st.ray[kUp].cross(a).squaredNorm() / s;
+  return t;
+}
+
+// Eq. 7, total planarity: |dP_-phi x dP_+phi|^2 + |dP_-theta x dP_+theta|^2, each pair where both
+// of its neighbours exist (a squared norm: no smoothing, smoothed = exact).
+inline StencilTerm tp_term(const Stencil& st) {
+  StencilTerm t;
+  const Eigen::Vector3d pi = st.point(kAnchor);
+  auto pair_term = [&](int before, int after) {
+    if (!st.present[before] || !st.present[after]) return;
+    const Eigen::Vector3d a = pi - st.point(before);
+    const Eigen::Vector3d b = st.point(after) - pi;
+    const Eigen::Vector3d c = a.cross(b);
+    t.smoothed += c.squaredNorm();
+    const Eigen::Vector3d g = 2.0 * c;
+    const Eigen::Vector3d grad_a = b.cross(g), grad_b = g.cross(a);
+    t.gradient[kAnchor] += (grad_a - grad_b).dot(st.ray[kAnchor]);
+    t.gradient[before] += -grad_a.dot(st.ray[before]);
+    t.gradient[after] += grad_b.dot(st.ray[after]);
+    // Gauss-Newton: 2 |dc/dD|^2, c is linear in each depth.
+    t.curvature[kAnchor] += 2.0 * st.ray[kAnchor].cross(a + b).squaredNorm();
+    t.curvature[before] += 2.0 * st.ray[before].cross(b).squaredNorm();
+    t.curvature[after] += 2.0 * a.cross(st.ray[after]).squaredNorm();
+  };
+  pair_term(kLeft, kRight);
+  pair_term(kUp, kDown);
+  t.exact = t.smoothed;
+  return t;
+}
+
+}  // namespace panoscan::depth_terms

@@ -1,0 +1,408 @@
+// The steps of the joint tracking (tracking_graph.h); the choices are documented in tracking.h.
+//
+// Solver: Levenberg-Marquardt with SPARSE_SCHUR by default: the landmarks (3 parameters each, the
+// large majority) form an independent set that Ceres eliminates first (its automatic ordering), and
+// the reduced camera system over poses, azimuths, T_u and T_c is sparse (banded by Eq. 3 and the
+// frame-to-frame tracks) and factored by SuiteSparse/CHOLMOD. SPARSE_NORMAL_CHOLESKY is the option
+// for graphs with few landmarks. Residuals and Jacobians are evaluated on `threads` threads.
+#include "tracking_graph.h"
+
+#include <algorithm>
+#include <cmath>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "panoscan/core/error.h"
+#include "panoscan/core/log.h"
+#include "tracking_factors.h"
+#include "tracking_init.h"
+
+namespace panoscan::tracking_graph {
+
+namespace tf = tracking_factors;
+
+PoseBlock PoseBlock::from(const Rigid3d& pose) {
+  PoseBlock block;
+  const Eigen::Quaterniond q(pose.linear());
+  block.q[0] = q.w();
+  block.q[1] = q.x();
+  block.q[2] = q.y();
+  block.q[3] = q.z();
+  for (int k = 0; k < 3; ++k) block.t[k] = pose.translation()[k];
+  return block;
+}
+
+Rigid3d PoseBlock::pose() const {
+  return make_rigid(Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
+}
+
+namespace {
+
+Rigid3d axis_rotation(double alpha) { return rotation_about(Eigen::Vector3d::UnitZ(), alpha); }
+
+// Piecewise-linear azimuth of time through (times, alphas) (sorted), extrapolated with the end slopes.
+double interpolate(const std::vector<double>& times, const std::vector<double>& alphas, double t) {
+  if (times.size() == 1) return alphas[0];
+  std::size_t i = std::upper_bound(times.begin(), times.end(), t) - times.begin();
+  i = std::clamp<std::size_t>(i, 1, times.size() - 1);
+  const double w = (t - times[i - 1]) / (times[i] - times[i - 1]);
+  return alphas[i - 1] + w * (alphas[i] - alphas[i - 1]);
+}
+
+bool finite(const Rigid3d& pose) { return pose.matrix().allFinite(); }
+
+// track.log_iterations: Ceres' per-iteration summary as log lines, and its full report at the end
+// (where a slow solve spends its time).
+class IterationLogger : public ceres::IterationCallback {
+ public:
+  explicit IterationLogger(std::string origin) : origin_(std::move(origin)) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& it) override {
+    log_info(fmt::format("{}: LM iteration {:3d} cost {:.6e} change {:+.3e} {} radius {:.2e} linear solver {:.2f} s, "
+                         "iteration {:.2f} s", origin_, it.iteration, it.cost, -it.cost_change,
+                         it.step_is_successful ? "accepted" : "rejected", it.trust_region_radius,
+                         it.linear_solver_iterations > 0 ? it.step_solver_time_in_seconds : 0.0, it.iteration_time_in_seconds));
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  std::string origin_;
+};
+
+}  // namespace
+
+std::vector<double> azimuths(const std::vector<Rigid3d>& world_from_cam, const Rigid3d& world_from_axis,
+                             const Rigid3d& ref_from_cam) {
+  std::vector<double> alpha;
+  for (const Rigid3d& pose : world_from_cam) {
+    const Eigen::Matrix3d rotation =
+        world_from_axis.linear().transpose() * pose.linear() * ref_from_cam.linear().transpose() * world_from_axis.linear();
+    const double raw = tracking_init::twist_angle(rotation, Eigen::Vector3d::UnitZ());
+    alpha.push_back(alpha.empty() ? raw : alpha.back() + wrap_pi(raw - alpha.back()));
+  }
+  return alpha;
+}
+
+FactorGraph::FactorGraph() {
+  ceres::Problem::Options problem_options;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem = std::make_unique<ceres::Problem>(problem_options);
+  quaternion_manifold = std::make_unique<ceres::QuaternionManifold>();
+}
+
+std::array<double, kFactorKinds> FactorGraph::term_costs() const {
+  std::array<double, kFactorKinds> out{};
+  for (int k = 0; k < kFactorKinds; ++k) {
+    if (blocks[k].empty()) continue;
+    ceres::Problem::EvaluateOptions evaluate;
+    evaluate.residual_blocks = blocks[k];
+    evaluate.num_threads = 1;
+    problem->Evaluate(evaluate, &out[k], nullptr, nullptr, nullptr);
+  }
+  return out;
+}
+
+TrackingState initialise_tracking_state(const ScanIndex& scan, const FrontendResult& frontend,
+                                        const TrackingOptions& options, const RigTrajectory* initial_guess) {
+  TrackingState st;
+  st.sensor_count = int(scan.rig.sensors.size());
+  st.ref = scan.rig.reference_sensor;
+  st.origin = scan.root.string();
+  const int ref = st.ref;
+  if (int(frontend.features.size()) != st.sensor_count)
+    throw make_error(st.origin, "frontend", "front end result does not match the scan's sensors");
+  if (scan.frames[ref].empty()) throw make_error(st.origin, scan.rig.sensors[ref].name, "the reference camera has no frames");
+  const bool ba_only = options.mode == TrackingMode::kBaOnly;
+  st.use_regularisation = !ba_only && options.pose_regularisation;
+  st.use_velocity = st.use_regularisation && options.velocity_smoothness;  // Eq. 3 acts through the azimuths of Eq. 2
+  st.active.assign(st.sensor_count, 0);
+  for (int s = 0; s < st.sensor_count; ++s) {
+    st.active[s] = (options.mode != TrackingMode::kSingleCamera || s == ref) && !scan.frames[s].empty();
+    if (scan.frames[s].empty()) log_warn(st.origin + ": " + scan.rig.sensors[s].name + " has no frames; left out");
+  }
+
+  // Odometry of the reference camera, a first axis, azimuths interpolated in time (tracking.h).
+  int verified = 0;
+  const std::vector<Rigid3d> odometry = tracking_init::chain_odometry(frontend, ref, &verified);
+  if (scan.frames[ref].size() > 1 && verified == 0)
+    throw make_error(st.origin, scan.rig.sensors[ref].name, "no verified frame pair in the reference camera (no features?)");
+  const tracking_init::AxisEstimate axis0 = tracking_init::fit_axis(odometry);
+  if (!axis0.from_rotation) log_warn(st.origin + ": too little rotation for an axis estimate; starting from the camera's up axis");
+  const Rigid3d world_from_axis0 = axis_frame(axis0.point, axis0.direction, odometry[0]);
+  for (const FrameEntry& e : scan.frames[ref]) st.ref_times.push_back(e.timestamp);
+  const std::vector<double> ref_alpha0 = azimuths(odometry, world_from_axis0, Rigid3d::Identity());
+
+  st.poses.resize(st.sensor_count);
+  st.alpha.resize(st.sensor_count);
+  st.extrinsics.resize(st.sensor_count);
+  for (int s = 0; s < st.sensor_count; ++s) {
+    st.extrinsics[s] = PoseBlock::from(scan.rig.sensors[s].ref_from_cam);
+    for (std::size_t f = 0; f < scan.frames[s].size(); ++f) {
+      const double a = interpolate(st.ref_times, ref_alpha0, scan.frames[s][f].timestamp);
+      const Rigid3d model = world_from_axis0 * axis_rotation(a) * world_from_axis0.inverse() * scan.rig.sensors[s].ref_from_cam;
+      st.poses[s].push_back(PoseBlock::from(s == ref ? odometry[f] : model));
+      st.alpha[s].push_back(s == ref ? ref_alpha0[f] : a);
+    }
+  }
+  st.axis = PoseBlock::from(world_from_axis0);
+  if (initial_guess) {  // start from the given poses, moved into the gauge (the first reference frame = identity)
+    check_rig_trajectory(*initial_guess, scan, st.origin + " (initial guess)");
+    const Rigid3d gauge = initial_guess->world_from_cam[ref].front().world_from_cam.inverse();
+    const Rigid3d world_from_axis = gauge * initial_guess->world_from_axis;
+    st.axis = PoseBlock::from(world_from_axis);
+    for (int s = 0; s < st.sensor_count; ++s) {
+      std::vector<Rigid3d> world_from_cam;
+      for (const StampedPose& p : initial_guess->world_from_cam[s]) world_from_cam.push_back(gauge * p.world_from_cam);
+      if (s != ref) st.extrinsics[s] = PoseBlock::from(initial_guess->ref_from_cam[s]);
+      const std::vector<double> a = azimuths(world_from_cam, world_from_axis, initial_guess->ref_from_cam[s]);
+      for (std::size_t f = 0; f < world_from_cam.size(); ++f) {
+        st.poses[s][f] = PoseBlock::from(world_from_cam[f]);
+        st.alpha[s][f] = a[f];
+      }
+    }
+  }
+  // T_r (world_from_rig): the reference camera at alpha = 0 without its wobble (tracking.h). The
+  // first reference frame is the world origin, so T_r starts at T_u R(alpha_ref0)^-1 T_u^-1 (the
+  // identity for the standard initialisation, where alpha_ref0 = 0).
+  st.rig = PoseBlock::from(st.axis.pose() * axis_rotation(-st.alpha[ref][0]) * st.axis.pose().inverse());
+
+  // Landmarks restricted to the active sensors, initialised from their first observation.
+  st.observation_count.resize(st.sensor_count);
+  for (int s = 0; s < st.sensor_count; ++s) st.observation_count[s].assign(scan.frames[s].size(), 0);
+  for (const auto& track : frontend.landmarks) {
+    std::vector<Observation> kept;
+    for (const Observation& o : track)
+      if (st.active[o.sensor]) kept.push_back(o);
+    if (kept.size() < 2) continue;
+    const Observation& first = kept.front();
+    const Keypoint& kp = frontend.features[first.sensor][first.frame].keypoints[first.keypoint];
+    const Eigen::Vector3d point = st.poses[first.sensor][first.frame].pose() *
+                                  scan.rig.sensors[first.sensor].intrinsics.backproject(kp.u, kp.v, kp.depth);
+    st.landmarks.push_back({point.x(), point.y(), point.z()});
+    for (const Observation& o : kept) ++st.observation_count[o.sensor][o.frame];
+    st.tracks.push_back(std::move(kept));
+  }
+
+  for (int s = 0; s < st.sensor_count; ++s)
+    if (st.active[s])
+      for (std::size_t f = 0; f < st.poses[s].size(); ++f) st.nodes.push_back({scan.frames[s][f].timestamp, s, int(f)});
+  std::sort(st.nodes.begin(), st.nodes.end(),
+            [](const FrameNode& a, const FrameNode& b) { return a.t != b.t ? a.t < b.t : a.s < b.s; });
+  return st;
+}
+
+void add_observation_factors(FactorGraph& graph, TrackingState& st, const ScanIndex& scan,
+                             const FrontendResult& frontend, const TrackingOptions& options) {
+  graph.huber = std::make_unique<ceres::HuberLoss>(options.huber_delta);
+  for (std::size_t j = 0; j < st.tracks.size(); ++j)
+    for (const Observation& o : st.tracks[j]) {
+      const Keypoint& kp = frontend.features[o.sensor][o.frame].keypoints[o.keypoint];
+      const PinholeIntrinsics& in = scan.rig.sensors[o.sensor].intrinsics;
+      const double sigma_px = std::pow(options.frontend.orb_scale_factor, kp.octave);
+      const double sigma_d = options.depth_noise_coefficient * double(kp.depth) * kp.depth;
+      graph.blocks[kObservation].push_back(graph.problem->AddResidualBlock(
+          tf::ObservationCost::create(kp.u, kp.v, kp.depth, in.fx, in.fy, in.cx, in.cy, sigma_px, sigma_d),
+          graph.huber.get(), st.poses[o.sensor][o.frame].q, st.poses[o.sensor][o.frame].t, st.landmarks[j].data()));
+    }
+}
+
+void add_regularisation_factors(FactorGraph& graph, TrackingState& st, const TrackingOptions& options) {
+  if (!st.use_regularisation) return;
+  ceres::Problem& problem = *graph.problem;
+  const double sigma_t = options.reg_translation_std_m, sigma_r = deg2rad(options.reg_rotation_std_deg);
+  for (int s = 0; s < st.sensor_count; ++s) {
+    if (!st.active[s]) continue;
+    PoseBlock& cam = s == st.ref ? st.identity : st.extrinsics[s];
+    for (std::size_t f = 0; f < st.poses[s].size(); ++f)
+      graph.blocks[kRegularisation].push_back(problem.AddResidualBlock(
+          tf::RegularisationCost::create(sigma_t, sigma_r), nullptr, st.poses[s][f].q, st.poses[s][f].t, &st.alpha[s][f],
+          st.axis.q, st.axis.t, st.rig.q, st.rig.t, cam.q, cam.t));
+  }
+  graph.blocks[kPriors].push_back(
+      problem.AddResidualBlock(tf::PosePriorCost::create(st.axis.q, st.axis.t, 1.0, 1.0), nullptr, st.axis.q, st.axis.t));
+  const bool refine_extrinsics = options.mode != TrackingMode::kFixedExtrinsics;
+  // The calibration as a prior on T_c (see tracking.h).
+  for (int s = 0; s < st.sensor_count; ++s)
+    if (s != st.ref && st.active[s] && refine_extrinsics)
+      graph.blocks[kPriors].push_back(problem.AddResidualBlock(
+          tf::PosePriorCost::create(st.extrinsics[s].q, st.extrinsics[s].t, options.extrinsics_prior_translation_std_m,
+                                    deg2rad(options.extrinsics_prior_rotation_std_deg)),
+          nullptr, st.extrinsics[s].q, st.extrinsics[s].t));
+  // ... and, held firmly, along the two directions nothing else observes (tracking.h).
+  if (options.extrinsics_null_prior)
+    for (int s = 0; s < st.sensor_count; ++s)
+      if (s != st.ref && st.active[s] && refine_extrinsics)
+        graph.blocks[kPriors].push_back(problem.AddResidualBlock(
+            tf::ExtrinsicsNullPriorCost::create(st.extrinsics[s].q, st.extrinsics[s].t, 1e-4, deg2rad(0.01)), nullptr,
+            st.extrinsics[s].q, st.extrinsics[s].t, st.axis.q, st.rig.q));
+}
+
+void add_shared_wobble_factors(FactorGraph& graph, TrackingState& st, const TrackingOptions& options) {
+  if (!st.use_regularisation || !options.shared_wobble) return;
+  const double sigma_r = deg2rad(options.reg_rotation_std_deg);
+  const double rate_r = deg2rad(options.wobble_rate_std_deg_s), rate_t = options.wobble_rate_std_m_s;
+  constexpr double kFloorS = 1e-3;  // timestamp jitter
+  for (std::size_t k = 0; k + 1 < st.nodes.size(); ++k) {
+    const FrameNode &a = st.nodes[k], &b = st.nodes[k + 1];
+    const double dt = std::max(b.t - a.t, 0.0) + kFloorS;
+    if (a.s == b.s || rate_r * dt >= sigma_r) continue;
+    PoseBlock& extr_a = a.s == st.ref ? st.identity : st.extrinsics[a.s];
+    PoseBlock& extr_b = b.s == st.ref ? st.identity : st.extrinsics[b.s];
+    graph.blocks[kSharedWobble].push_back(graph.problem->AddResidualBlock(
+        tf::SharedWobbleCost::create(rate_t * dt, rate_r * dt), nullptr, st.poses[a.s][a.f].q, st.poses[a.s][a.f].t,
+        &st.alpha[a.s][a.f], extr_a.q, extr_a.t, st.poses[b.s][b.f].q, st.poses[b.s][b.f].t, &st.alpha[b.s][b.f],
+        extr_b.q, extr_b.t, st.axis.q, st.axis.t, st.rig.q, st.rig.t));
+    ++graph.shared_wobble_links;
+  }
+}
+
+void add_velocity_factors(FactorGraph& graph, TrackingState& st, const TrackingOptions& options) {
+  if (!st.use_velocity) return;
+  std::vector<FrameNode> instants;  // one representative per instant
+  const double sigma_accel = deg2rad(options.angular_accel_std_deg_s2);
+  for (const FrameNode& n : st.nodes) {
+    if (!instants.empty() && n.t - instants.back().t < options.same_time_s) {
+      graph.blocks[kVelocity].push_back(graph.problem->AddResidualBlock(
+          tf::SameTimeCost::create(1e-6), nullptr, &st.alpha[instants.back().s][instants.back().f], &st.alpha[n.s][n.f]));
+      continue;
+    }
+    instants.push_back(n);
+  }
+  for (std::size_t k = 1; k + 1 < instants.size(); ++k) {
+    const FrameNode &a = instants[k - 1], &b = instants[k], &c = instants[k + 1];
+    const double sigma = sigma_accel * (options.velocity_std_scales_with_dt ? 0.5 * (c.t - a.t) : 1.0);
+    graph.blocks[kVelocity].push_back(graph.problem->AddResidualBlock(tf::VelocityCost::create(a.t, b.t, c.t, sigma), nullptr,
+                                                                      &st.alpha[a.s][a.f], &st.alpha[b.s][b.f],
+                                                                      &st.alpha[c.s][c.f]));
+  }
+}
+
+void fix_gauge(FactorGraph& graph, TrackingState& st, const TrackingOptions& options) {
+  ceres::Problem& problem = *graph.problem;
+  for (int s = 0; s < st.sensor_count; ++s) {
+    for (std::size_t f = 0; f < st.poses[s].size(); ++f) {
+      if (!problem.HasParameterBlock(st.poses[s][f].q)) continue;
+      problem.SetManifold(st.poses[s][f].q, graph.quaternion_manifold.get());
+      // Gauge: the first reference frame. Without Eq. 2 (ba-only) also the first frame of every camera (without
+      // cross-camera landmarks each camera's bundle adjustment has its own gauge; it stays at the
+      // calibrated extrinsics) and frames without observations (no factor constrains them).
+      const bool unconstrained = !st.use_regularisation && (st.observation_count[s][f] == 0 || f == 0);
+      if ((s == st.ref && f == 0) || unconstrained) {
+        problem.SetParameterBlockConstant(st.poses[s][f].q);
+        problem.SetParameterBlockConstant(st.poses[s][f].t);
+      }
+    }
+    if (s != st.ref && problem.HasParameterBlock(st.extrinsics[s].q)) {
+      problem.SetManifold(st.extrinsics[s].q, graph.quaternion_manifold.get());
+      if (options.mode == TrackingMode::kFixedExtrinsics) {
+        problem.SetParameterBlockConstant(st.extrinsics[s].q);
+        problem.SetParameterBlockConstant(st.extrinsics[s].t);
+      }
+    }
+  }
+  if (problem.HasParameterBlock(st.identity.q)) {
+    problem.SetParameterBlockConstant(st.identity.q);
+    problem.SetParameterBlockConstant(st.identity.t);
+  }
+  if (problem.HasParameterBlock(st.axis.q)) problem.SetManifold(st.axis.q, graph.quaternion_manifold.get());
+  if (problem.HasParameterBlock(st.rig.q)) {
+    problem.SetManifold(st.rig.q, graph.quaternion_manifold.get());
+    // Gauge of T_r: a rotation of T_r about the axis is a shift of every azimuth; the first
+    // reference azimuth is held instead.
+    problem.SetParameterBlockConstant(&st.alpha[st.ref][0]);
+  }
+  // A frame of an active camera outside every factor (ba-only without observations) keeps its start.
+}
+
+ceres::Solver::Summary solve_tracking_graph(FactorGraph& graph, const TrackingOptions& options,
+                                            const std::string& origin, int* threads_used) {
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type =
+      options.linear_solver == "sparse_schur" ? ceres::SPARSE_SCHUR : ceres::SPARSE_NORMAL_CHOLESKY;
+  solver_options.minimizer_type = ceres::TRUST_REGION;
+  solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.num_threads = options.threads > 0 ? options.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.logging_type = ceres::SILENT;
+  // No explicit ParameterBlockOrdering: Ceres orders the blocks of a user ordering by address, which
+  // varies between runs (measured: about 25% faster but not reproducible); its automatic ordering
+  // finds the landmarks as the eliminated set and is reproducible.
+  IterationLogger iteration_logger(origin);
+  if (options.log_iterations) solver_options.callbacks.push_back(&iteration_logger);
+  ceres::Solver::Summary summary;
+  if (threads_used) *threads_used = solver_options.num_threads;
+  if (graph.problem->NumResidualBlocks() == 0) return summary;
+  ceres::Solve(solver_options, graph.problem.get(), &summary);
+  if (options.log_iterations) log_info(summary.FullReport());
+  return summary;
+}
+
+TrackingResult extract_tracking_result(const TrackingState& st, const ScanIndex& scan, const TrackingOptions& options,
+                                       bool* all_finite_out) {
+  const int ref = st.ref;
+  TrackingResult result;
+  RigTrajectory& trajectory = result.trajectory;
+  trajectory.source = std::string("tracked:") + to_string(options.mode);
+  trajectory.world_from_cam.resize(st.sensor_count);
+  trajectory.ref_from_cam.resize(st.sensor_count);
+  for (int s = 0; s < st.sensor_count; ++s) {
+    const bool estimated = s != ref && st.active[s] && st.use_regularisation;
+    trajectory.ref_from_cam[s] =
+        estimated ? st.extrinsics[s].pose() : (s == ref ? Rigid3d::Identity() : scan.rig.sensors[s].ref_from_cam);
+  }
+  std::vector<Rigid3d> ref_poses;
+  for (const PoseBlock& p : st.poses[ref]) ref_poses.push_back(p.pose());
+  Rigid3d world_from_axis;
+  if (st.use_regularisation) {
+    world_from_axis = st.axis.pose();
+  } else {
+    const tracking_init::AxisEstimate fitted = tracking_init::fit_axis(ref_poses);
+    world_from_axis = axis_frame(fitted.point, fitted.direction, ref_poses[0]);
+  }
+  trajectory.world_from_axis = axis_frame(world_from_axis.translation(), world_from_axis.linear().col(2), ref_poses[0]);
+  const std::vector<double> ref_alpha = azimuths(ref_poses, trajectory.world_from_axis, Rigid3d::Identity());
+  bool all_finite = finite(trajectory.world_from_axis);
+  result.azimuth_rad.resize(st.sensor_count);
+  result.azimuth_unwrapped_rad.resize(st.sensor_count);
+  for (int s = 0; s < st.sensor_count; ++s) {
+    std::vector<Rigid3d> world_from_cam;
+    for (std::size_t f = 0; f < scan.frames[s].size(); ++f) {
+      Rigid3d pose;
+      if (st.active[s]) {
+        pose = st.poses[s][f].pose();
+      } else if (st.use_regularisation) {  // single-camera mode: the other cameras follow the Eq. 2 model
+        const double a = interpolate(st.ref_times, st.alpha[ref], scan.frames[s][f].timestamp);
+        pose = st.axis.pose() * axis_rotation(a) * st.axis.pose().inverse() * st.rig.pose() * trajectory.ref_from_cam[s];
+      } else {  // ... or, without Eq. 2, the rotation about the fitted axis
+        const double a = interpolate(st.ref_times, ref_alpha, scan.frames[s][f].timestamp);
+        pose = trajectory.world_from_axis * axis_rotation(a) * trajectory.world_from_axis.inverse() * trajectory.ref_from_cam[s];
+      }
+      all_finite = all_finite && finite(pose);
+      trajectory.world_from_cam[s].push_back({scan.frames[s][f].timestamp, pose});
+      world_from_cam.push_back(pose);
+    }
+    result.azimuth_unwrapped_rad[s] = azimuths(world_from_cam, trajectory.world_from_axis, trajectory.ref_from_cam[s]);
+    for (double a : result.azimuth_unwrapped_rad[s]) result.azimuth_rad[s].push_back(wrap_two_pi(a));
+  }
+  if (all_finite_out) *all_finite_out = all_finite;
+  return result;
+}
+
+std::vector<double> observation_residual_norms(FactorGraph& graph) {
+  std::vector<double> norms;
+  if (graph.blocks[kObservation].empty()) return norms;
+  ceres::Problem::EvaluateOptions evaluate;
+  evaluate.residual_blocks = graph.blocks[kObservation];
+  evaluate.apply_loss_function = false;
+  evaluate.num_threads = 1;
+  std::vector<double> residuals;
+  graph.problem->Evaluate(evaluate, nullptr, &residuals, nullptr, nullptr);
+  for (std::size_t k = 0; k + 2 < residuals.size(); k += 3)
+    norms.push_back(std::sqrt(residuals[k] * residuals[k] + residuals[k + 1] * residuals[k + 1] +
+                              residuals[k + 2] * residuals[k + 2]));
+  return norms;
+}
+
+}  // namespace panoscan::tracking_graph

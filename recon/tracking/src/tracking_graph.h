@@ -1,0 +1,104 @@
+// Internal to panoscan_recon_tracking (and its tests): the joint tracking of tracking.h as named
+// steps, in the order track_with_frontend runs them:
+//   initialise_tracking_state   odometry, axis and azimuths of the first guess (tracking.h)
+//   add_observation_factors     Eq. 1
+//   add_regularisation_factors  Eq. 2 and the priors on T_u and T_c
+//   add_shared_wobble_factors   beyond the paper (tracking.h)
+//   add_velocity_factors        Eq. 3
+//   fix_gauge                   manifolds, the gauge and the constant blocks
+//   solve_tracking_graph        Eq. 4 (Levenberg-Marquardt)
+//   extract_tracking_result     poses, axis, extrinsics and azimuths of the solution
+// The verification of the result is verify_tracking (tracking.h).
+#pragma once
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <ceres/ceres.h>
+
+#include "panoscan/recon/tracking.h"
+
+namespace panoscan::tracking_graph {
+
+// A pose in Ceres' layout: unit quaternion (w, x, y, z) and translation.
+struct PoseBlock {
+  double q[4] = {1, 0, 0, 0};
+  double t[3] = {0, 0, 0};
+
+  static PoseBlock from(const Rigid3d& pose);
+  Rigid3d pose() const;
+};
+
+// Every frame of the active cameras in timestamp order (ties by camera).
+struct FrameNode {
+  double t = 0.0;
+  int s = 0, f = 0;
+};
+
+// The variables of the graph and what they are built from.
+struct TrackingState {
+  int sensor_count = 0, ref = 0;
+  std::string origin;                                   // the scan, for messages
+  std::vector<char> active;                             // per sensor: in the graph
+  bool use_regularisation = false, use_velocity = false;
+  std::vector<std::vector<PoseBlock>> poses;            // T_ci (world_from_cam) per sensor, per frame
+  std::vector<std::vector<double>> alpha;               // alpha_ci, unwrapped
+  std::vector<PoseBlock> extrinsics;                    // T_c (ref_from_cam)
+  PoseBlock axis;                                       // T_u (world_from_axis)
+  PoseBlock rig;                                        // T_r (world_from_rig)
+  PoseBlock identity;                                   // the reference camera's T_c, held constant
+  std::vector<double> ref_times;                        // timestamps of the reference frames
+  std::vector<std::vector<Observation>> tracks;         // landmarks restricted to the active sensors
+  std::vector<std::array<double, 3>> landmarks;         // y_j
+  std::vector<std::vector<int>> observation_count;      // per sensor, per frame
+  std::vector<FrameNode> nodes;                         // frames of the active cameras in time order
+};
+
+// The Ceres problem with the blocks of each kind of factor (for the cost of each term).
+enum FactorKind { kObservation, kRegularisation, kVelocity, kPriors, kSharedWobble, kFactorKinds };
+
+struct FactorGraph {
+  FactorGraph();
+  std::unique_ptr<ceres::Problem> problem;
+  std::unique_ptr<ceres::QuaternionManifold> quaternion_manifold;
+  std::unique_ptr<ceres::HuberLoss> huber;
+  std::array<std::vector<ceres::ResidualBlockId>, kFactorKinds> blocks;
+  int shared_wobble_links = 0;
+
+  // Ceres' 1/2 sum of squares of each kind of factor (Huber applied).
+  std::array<double, kFactorKinds> term_costs() const;
+};
+
+// The first guess (tracking.h: chained odometry, fitted axis, interpolated azimuths), or
+// `initial_guess` moved into the gauge when given. Throws Error when the reference camera has no
+// frames or no verified frame pair.
+TrackingState initialise_tracking_state(const ScanIndex& scan, const FrontendResult& frontend,
+                                        const TrackingOptions& options, const RigTrajectory* initial_guess);
+
+void add_observation_factors(FactorGraph& graph, TrackingState& state, const ScanIndex& scan,
+                             const FrontendResult& frontend, const TrackingOptions& options);
+void add_regularisation_factors(FactorGraph& graph, TrackingState& state, const TrackingOptions& options);
+void add_shared_wobble_factors(FactorGraph& graph, TrackingState& state, const TrackingOptions& options);
+void add_velocity_factors(FactorGraph& graph, TrackingState& state, const TrackingOptions& options);
+void fix_gauge(FactorGraph& graph, TrackingState& state, const TrackingOptions& options);
+
+ceres::Solver::Summary solve_tracking_graph(FactorGraph& graph, const TrackingOptions& options,
+                                            const std::string& origin, int* threads_used);
+
+// The trajectory of every frame of the scan (inactive cameras follow the Eq. 2 model) and the
+// azimuths; sets *all_finite.
+TrackingResult extract_tracking_result(const TrackingState& state, const ScanIndex& scan, const TrackingOptions& options,
+                                       bool* all_finite);
+
+// Unwrapped azimuths of poses about the axis of world_from_axis (for a camera with extrinsics
+// ref_from_cam): the twist of T_u^-1 T_ci T_c^-1 T_u about z.
+std::vector<double> azimuths(const std::vector<Rigid3d>& world_from_cam, const Rigid3d& world_from_axis,
+                             const Rigid3d& ref_from_cam);
+
+// The whitened residual norm of every observation (Eq. 1) at the current state, per track, per
+// observation, in the order of state.tracks (for the verification's residual statistics).
+std::vector<double> observation_residual_norms(FactorGraph& graph);
+
+}  // namespace panoscan::tracking_graph

@@ -1,0 +1,196 @@
+// verify_tracking (tracking.h): the self-check of a tracked trajectory. A wrong trajectory written
+// as a result is the worst outcome a testbed can have; each check compares the solution with a
+// property every rotator scan has, or with what the front end measured on its own.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "panoscan/core/error.h"
+#include "panoscan/core/log.h"
+#include "panoscan/recon/tracking.h"
+
+namespace panoscan {
+
+std::string TrackingVerdict::first_failure() const {
+  for (const TrackingCheck& c : checks)
+    if (!c.passed) return c.name + ": " + c.detail;
+  return "";
+}
+
+void require_reliable_tracking(const TrackingResult& result, const TrackingOptions& options,
+                               const std::string& scan_name) {
+  if (result.verdict.reliable) return;
+  const std::string why = "not trustworthy: " + result.verdict.first_failure();
+  if (!options.allow_unreliable) throw make_error(scan_name, "tracking", why);
+  log_warn(scan_name + ": tracking " + why + " (kept: track.allow_unreliable)");
+}
+
+namespace {
+
+struct PairCheck {
+  int pairs = 0, consistent = 0;
+  double worst_rotation_deg = 0, worst_translation_m = 0;
+};
+
+// Tracked against verified relative poses of the front end's pairs of one kind.
+PairCheck check_pairs(const TrackingResult& result, const FrontendResult& frontend,
+                      const std::vector<std::vector<int>>& observations, bool loop, const TrackingVerifyOptions& v) {
+  PairCheck out;
+  for (const FramePairMatch& p : frontend.pairs) {
+    if ((p.kind == FramePairMatch::Kind::kLoop) != loop) continue;
+    if (observations[p.sensor_a].empty() || observations[p.sensor_b].empty()) continue;  // camera outside the graph
+    const Rigid3d& a = result.trajectory.world_from_cam[p.sensor_a][p.frame_a].world_from_cam;
+    const Rigid3d& b = result.trajectory.world_from_cam[p.sensor_b][p.frame_b].world_from_cam;
+    const Rigid3d tracked = a.inverse() * b;
+    const double rotation_deg = rad2deg(rotation_angle(tracked.linear().transpose() * p.a_from_b.linear()));
+    const double translation_m = (tracked.translation() - p.a_from_b.translation()).norm();
+    ++out.pairs;
+    out.consistent += rotation_deg <= v.pair_rotation_tolerance_deg && translation_m <= v.pair_translation_tolerance_m;
+    out.worst_rotation_deg = std::max(out.worst_rotation_deg, rotation_deg);
+    out.worst_translation_m = std::max(out.worst_translation_m, translation_m);
+  }
+  return out;
+}
+
+}  // namespace
+
+TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& scan, const FrontendResult& frontend,
+                                const std::vector<std::vector<int>>& observations,
+                                const std::vector<double>& residual_norms, const TrackingOptions& options) {
+  const TrackingVerifyOptions& v = options.verify;
+  const int sensors = int(scan.rig.sensors.size());
+  const int ref = scan.rig.reference_sensor;
+  TrackingVerdict verdict;
+  verdict.frames.resize(sensors);
+  for (int s = 0; s < sensors; ++s) verdict.frames[s].resize(scan.frames[s].size());
+  if (int(observations.size()) != sensors || int(result.trajectory.world_from_cam.size()) != sensors)
+    throw make_error(scan.root.string(), "tracking", "verification input does not match the scan's sensors");
+  auto add = [&](std::string name, bool passed, double value, double limit, std::string detail) {
+    verdict.checks.push_back({std::move(name), passed, value, limit, std::move(detail)});
+    verdict.reliable = verdict.reliable && passed;
+  };
+
+  // finite
+  bool finite = result.trajectory.world_from_axis.matrix().allFinite();
+  for (const auto& poses : result.trajectory.world_from_cam)
+    for (const StampedPose& p : poses) finite = finite && p.world_from_cam.matrix().allFinite();
+  add("finite", finite, finite ? 0 : 1, 0, finite ? "every pose is finite" : "the solution has non-finite poses");
+  if (!finite) {
+    verdict.checked = true;
+    return verdict;
+  }
+
+  // turn and monotone: the reference camera's azimuth.
+  const std::vector<double>& azimuth = result.azimuth_unwrapped_rad[ref];
+  const std::vector<FrameEntry>& ref_frames = scan.frames[ref];
+  const double turn_deg = azimuth.size() > 1 ? rad2deg(azimuth.back() - azimuth.front()) : 0.0;
+  const double direction = turn_deg < 0 ? -1.0 : 1.0;
+  const double duration_s = ref_frames.size() > 1 ? ref_frames.back().timestamp - ref_frames.front().timestamp : 0.0;
+  const double rate_deg_s = duration_s > 0 ? std::abs(turn_deg) / duration_s : 0.0;
+
+  // frames: instants where some camera in the graph has min_frame_observations observations; the
+  // longest turn between two of them (time x mean turn rate, so that a wrong azimuth cannot hide it).
+  std::vector<double> supported_times;
+  for (int s = 0; s < sensors; ++s)
+    for (std::size_t f = 0; f < observations[s].size(); ++f)
+      if (observations[s][f] >= v.min_frame_observations) supported_times.push_back(scan.frames[s][f].timestamp);
+  std::sort(supported_times.begin(), supported_times.end());
+  double longest_gap_deg = std::numeric_limits<double>::infinity();
+  if (!supported_times.empty() && !ref_frames.empty()) {
+    longest_gap_deg = rate_deg_s * std::max(supported_times.front() - ref_frames.front().timestamp,
+                                            ref_frames.back().timestamp - supported_times.back());
+    for (std::size_t k = 1; k < supported_times.size(); ++k)
+      longest_gap_deg = std::max(longest_gap_deg, rate_deg_s * (supported_times[k] - supported_times[k - 1]));
+  }
+  for (int s = 0; s < sensors; ++s)
+    for (std::size_t f = 0; f < scan.frames[s].size(); ++f) {
+      FrameSupport& support = verdict.frames[s][f];
+      support.observations = f < observations[s].size() ? observations[s][f] : 0;
+      const double t = scan.frames[s][f].timestamp;
+      double nearest_s = std::numeric_limits<double>::infinity();
+      const auto it = std::lower_bound(supported_times.begin(), supported_times.end(), t);
+      if (it != supported_times.end()) nearest_s = std::min(nearest_s, *it - t);
+      if (it != supported_times.begin()) nearest_s = std::min(nearest_s, t - *(it - 1));
+      support.gap_deg = std::isfinite(nearest_s) ? rate_deg_s * nearest_s : 360.0;
+      support.confidence = std::min(1.0, double(support.observations) / v.min_frame_observations) *
+                           std::max(0.0, 1.0 - support.gap_deg / v.max_unsupported_turn_deg);
+    }
+  add("frames", longest_gap_deg <= v.max_unsupported_turn_deg, longest_gap_deg, v.max_unsupported_turn_deg,
+      std::isfinite(longest_gap_deg)
+          ? fmt::format("the longest stretch without a frame of {} or more observations spans {:.1f} deg of the turn "
+                        "(at most {:.0f}): there only Eq. 2-3 carry the azimuth",
+                        v.min_frame_observations, longest_gap_deg, v.max_unsupported_turn_deg)
+          : fmt::format("no frame has {} or more observations", v.min_frame_observations));
+  add("turn", std::abs(turn_deg) >= v.min_turn_deg && std::abs(turn_deg) <= v.max_turn_deg, std::abs(turn_deg),
+      std::abs(turn_deg) < v.min_turn_deg ? v.min_turn_deg : v.max_turn_deg,
+      fmt::format("the reference camera turns {:.1f} deg; a panoramic scan is one revolution ({:.0f} to {:.0f} deg)",
+                  std::abs(turn_deg), v.min_turn_deg, v.max_turn_deg));
+  double worst_backward_deg = 0.0;
+  for (std::size_t k = 1; k < azimuth.size(); ++k)
+    worst_backward_deg = std::max(worst_backward_deg, -direction * rad2deg(azimuth[k] - azimuth[k - 1]));
+  add("monotone", worst_backward_deg <= v.max_backward_step_deg, worst_backward_deg, v.max_backward_step_deg,
+      fmt::format("the azimuth steps back by up to {:.2f} deg between frames (at most {:.1f}); the rotator turns one way",
+                  worst_backward_deg, v.max_backward_step_deg));
+
+  // pairs and loop: the front end's verified frame pairs.
+  for (const bool loop : {false, true}) {
+    const PairCheck p = check_pairs(result, frontend, observations, loop, v);
+    const double share = p.pairs > 0 ? double(p.consistent) / p.pairs : 1.0;
+    const char* what = loop ? "loop-closure pairs" : "verified frame pairs";
+    add(loop ? "loop" : "pairs", share >= v.min_consistent_pair_share, share, v.min_consistent_pair_share,
+        p.pairs == 0 ? fmt::format("no {} to compare with", what)
+                     : fmt::format("{} of {} {} agree with the tracked poses within {:.1f} deg / {:.0f} mm (worst {:.2f} "
+                                   "deg / {:.0f} mm)",
+                                   p.consistent, p.pairs, what, v.pair_rotation_tolerance_deg,
+                                   v.pair_translation_tolerance_m * 1e3, p.worst_rotation_deg, p.worst_translation_m * 1e3));
+  }
+
+  // residuals
+  const double outlier_limit = 3.0 * options.huber_delta;
+  const std::size_t outliers =
+      std::count_if(residual_norms.begin(), residual_norms.end(), [&](double r) { return r > outlier_limit; });
+  const double outlier_share = residual_norms.empty() ? 0.0 : double(outliers) / residual_norms.size();
+  add("residuals", outlier_share <= v.max_outlier_share, outlier_share, v.max_outlier_share,
+      fmt::format("{} of {} observations have a whitened residual above {:.1f} (share {:.3f}, at most {:.2f})", outliers,
+                  residual_norms.size(), outlier_limit, outlier_share, v.max_outlier_share));
+
+  // extrinsics: only where the graph estimates them.
+  double worst_rotation_deg = 0, worst_translation_m = 0;
+  std::string worst_camera;
+  for (int s = 0; s < sensors; ++s) {
+    if (s == ref) continue;
+    const Rigid3d& calibrated = scan.rig.sensors[s].ref_from_cam;
+    const Rigid3d& estimated = result.trajectory.ref_from_cam[s];
+    const double rotation_deg = rad2deg(rotation_angle(calibrated.linear().transpose() * estimated.linear()));
+    const double translation_m = (calibrated.translation() - estimated.translation()).norm();
+    if (rotation_deg / v.max_extrinsics_change_deg + translation_m / v.max_extrinsics_change_m >
+        worst_rotation_deg / v.max_extrinsics_change_deg + worst_translation_m / v.max_extrinsics_change_m) {
+      worst_rotation_deg = rotation_deg;
+      worst_translation_m = translation_m;
+      worst_camera = scan.rig.sensors[s].name;
+    }
+  }
+  add("extrinsics", worst_rotation_deg <= v.max_extrinsics_change_deg && worst_translation_m <= v.max_extrinsics_change_m,
+      worst_rotation_deg, v.max_extrinsics_change_deg,
+      worst_camera.empty()
+          ? std::string("the extrinsics stay at the calibration")
+          : fmt::format("{}'s extrinsics moved {:.2f} deg / {:.1f} mm from rig.json's calibration (at most {:.1f} deg / "
+                        "{:.0f} mm): the calibration is wrong or the tracking failed",
+                        worst_camera, worst_rotation_deg, worst_translation_m * 1e3, v.max_extrinsics_change_deg,
+                        v.max_extrinsics_change_m * 1e3));
+
+  // axis: against the reference camera's up (-y) at its first frame; the axis' sign is arbitrary.
+  const Eigen::Vector3d axis_in_camera = result.trajectory.world_from_cam[ref].front().world_from_cam.linear().transpose() *
+                                         result.trajectory.world_from_axis.linear().col(2);
+  const double tilt_deg = rad2deg(std::acos(std::min(1.0, std::abs(axis_in_camera.normalized().y()))));
+  add("axis", tilt_deg <= v.max_axis_tilt_deg, tilt_deg, v.max_axis_tilt_deg,
+      fmt::format("the rotation axis is {:.1f} deg from the reference camera's vertical (at most {:.0f})", tilt_deg,
+                  v.max_axis_tilt_deg));
+
+  verdict.checked = true;
+  return verdict;
+}
+
+}  // namespace panoscan
