@@ -6,7 +6,7 @@
 // Factors:
 //   Eq. 1 observation: p = d [u, v, 1] against K (T_ci^-1 y_j), covariance of p propagated from
 //          diag(sigma_u^2, sigma_v^2, sigma_d^2) (sigma_u,v = 1.2^octave px, sigma_d = 9.49e-4 d^2 m,
-//          SPEC §11), Huber kernel;
+//          docs/ARCHITECTURE.md §4.1), Huber kernel;
 //   Eq. 2 pose regularisation: log(T_ci^-1 T_u R(alpha_ci) T_u^-1 T_r T_c) with 5 mm / 0.5 deg std;
 //   Eq. 3 velocity smoothness over all frames of all cameras in timestamp order.
 // Choices (documented in tracking.cpp): rotations as unit quaternions on Ceres' QuaternionManifold
@@ -59,7 +59,8 @@ struct TrackingOptions {
   bool velocity_smoothness = true;              // track.velocity_smoothness: Eq. 3 on/off (ablation)
   double reg_translation_std_m = 0.005;         // track.reg_translation_std_m (paper §6.1)
   double reg_rotation_std_deg = 0.5;            // track.reg_rotation_std_deg (paper §6.1)
-  double angular_accel_std_deg_s2 = 1.0;        // track.angular_accel_std_deg_s2 (SPEC §4; paper: variance "1/s^2")
+  // Eq. 3's confidence as an angular-acceleration std (docs/ARCHITECTURE.md §8.2; paper: variance "1/s^2").
+  double angular_accel_std_deg_s2 = 1.0;        // track.angular_accel_std_deg_s2
   // true: the std of v_{i,i+1} - v_{i-1,i} is accel_std * (t_{i+1} - t_{i-1}) / 2 (the velocity change a
   // random acceleration causes over the interval); false: accel_std * 1 s, the paper's constant Omega_vel.
   bool velocity_std_scales_with_dt = true;      // track.velocity_std_scales_with_dt
@@ -81,7 +82,7 @@ struct TrackingOptions {
   double wobble_rate_std_m_s = 0.08;            // track.wobble_rate_std_m_s
   double same_time_s = 1e-3;                    // track.same_time_s: frames closer in time share one azimuth
   double huber_delta = 2.796;                   // track.huber_delta: on the whitened residual (sqrt of chi2(3) 95%)
-  double depth_noise_coefficient = 9.49e-4;     // track.depth_noise_coefficient: sigma_d = c d^2 (SPEC §11)
+  double depth_noise_coefficient = 9.49e-4;     // track.depth_noise_coefficient: sigma_d = c d^2, ARCHITECTURE.md §4.1
   int max_iterations = 100;                     // track.max_iterations
   // track.function_tolerance: stop when an iteration lowers the cost by less than this fraction.
   // 1e-5 against the earlier 1e-7 (320x240, seed 1): the same ATE to 0.006 mm on SO-1 and SL-1 at
