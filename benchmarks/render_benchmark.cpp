@@ -1,4 +1,4 @@
-// Renderer speed against bare Embree on the same rays, in the same run (SPEC: report ratios),
+// Renderer speed against bare Embree on the same rays, in the same run (docs/ARCHITECTURE.md §14.2: report ratios),
 // and the time and disk size of one full simulated scanning position.
 //
 //   build/benchmarks/render_benchmark                       # all

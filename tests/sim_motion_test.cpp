@@ -1,4 +1,4 @@
-// Motion, shutters and ground-truth poses of the simulated rig (SPEC §3.3-3.4).
+// Motion, shutters and ground-truth poses of the simulated rig (docs/ARCHITECTURE.md §6.3-6.4).
 #include <algorithm>
 #include <cmath>
 #include <set>

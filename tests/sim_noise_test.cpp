@@ -1,4 +1,4 @@
-// The depth noise model of SPEC §11 (Handa et al. 2014), checked statistically through the
+// The depth noise model of docs/ARCHITECTURE.md §4 (Handa et al. 2014), checked statistically through the
 // whole renderer on a real wall.
 #include <cmath>
 

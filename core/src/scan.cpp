@@ -1,4 +1,4 @@
-// The scan format (SPEC §3.6): reading, validating and atomically writing a scan directory.
+// The scan format (docs/ARCHITECTURE.md §5): reading, validating and atomically writing a scan directory.
 //
 // rig.json, format "panoscan-scan", version 1. Every field is required unless marked optional;
 // unknown fields are rejected (a misspelt field must not be silently ignored).

@@ -12,7 +12,7 @@ namespace panoscan {
 
 namespace {
 
-// Handa et al.'s depth std (SPEC §11): sigma_Z = Z^2 / 351.3 / 3 (radial ~ z for the centre rays).
+// Handa et al.'s depth std (docs/ARCHITECTURE.md §4.1): sigma_Z = Z^2 / 351.3 / 3 (radial ~ z for the centre rays).
 double handa_model_sigma(double depth_m) { return depth_m * depth_m / 351.3 / 3.0; }
 
 // The median measured sigma_z of the pixels that pass the filters (kConstant's default value).

@@ -1,5 +1,5 @@
-// Point clouds: the output of reconstruction (SPEC §7: PLY with colour and per-point variance)
-// and the input of evaluation.
+// Point clouds: the output of reconstruction (docs/ARCHITECTURE.md §11.3: PLY with colour and
+// per-point variance) and the input of evaluation.
 //
 // PLY layout read and written here, one `vertex` element:
 //   x y z        required; any numeric type (float or double in practice), metres

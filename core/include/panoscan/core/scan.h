@@ -1,4 +1,4 @@
-// The scan format (SPEC §3.6): one directory per scanning position.
+// The scan format (docs/ARCHITECTURE.md §5): one directory per scanning position.
 //
 //   rig.json                   format name + version, sensors (intrinsics, image size, depth scale,
 //                              calibrated extrinsics ref_from_cam), reference sensor index

@@ -1,4 +1,4 @@
-// Accuracy of a reconstructed cloud against the ground-truth mesh (SPEC §8, paper Tables 1-5).
+// Accuracy of a reconstructed cloud against the ground-truth mesh (docs/ARCHITECTURE.md §13, paper Tables 1-5).
 //
 // Accuracy side: every reconstructed point's exact distance to the mesh (MeshDistance). The
 // paper's figure is the RMSE over all points; we also give mean, median, p90, p99 and max, and

@@ -1,5 +1,5 @@
-// Exact distance from points to a triangle mesh (SPEC §8: "the distance to the closest point on
-// the ground-truth mesh", point-to-triangle, never point-to-vertex or a sampled mesh).
+// Exact distance from points to a triangle mesh (docs/ARCHITECTURE.md §13: the distance to the closest
+// point of the ground-truth triangles, point-to-triangle, never point-to-vertex or a sampled mesh).
 //
 // MeshDistance builds a BVH over the triangles once (Embree) and answers closest-point queries:
 // the BVH only proposes candidate triangles, and each candidate's distance is computed exactly

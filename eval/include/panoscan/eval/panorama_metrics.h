@@ -1,5 +1,5 @@
 // Radial-depth error of a reconstructed equirectangular panorama against a noiseless ground-truth
-// panorama rendered from the same centre (SPEC §8). Both are ImageF32 of radial depth in metres,
+// panorama rendered from the same centre (docs/ARCHITECTURE.md §13). Both are ImageF32 of radial depth in metres,
 // 0 (or non-finite) = no depth.
 #pragma once
 

@@ -1,5 +1,5 @@
 // Errors between an estimated and a true rigid transform, and between two axes (lines): used for
-// the rig's extrinsics (T_c), the rotation axis (T_u) and registration (SPEC §8).
+// the rig's extrinsics (T_c), the rotation axis (T_u) and registration (docs/ARCHITECTURE.md §13).
 #pragma once
 
 #include <vector>

@@ -1,4 +1,4 @@
-// Registration errors (SPEC §8, paper Table 4): the estimated relative pose against the truth, and
+// Registration errors (docs/ARCHITECTURE.md §13, paper Table 4): the estimated relative pose against the truth, and
 // the accuracy of the source cloud placed by the estimated pose against the ground-truth mesh.
 #pragma once
 

@@ -33,7 +33,7 @@ std::vector<SurfaceSample> sample_surface_uniform(const TriangleMesh& mesh, std:
 // (either side) is at most max_incidence_deg, (3) the line of sight's elevation above the
 // horizontal (z up) is within +-max_abs_elevation_deg, and (4) no triangle blocks the line of
 // sight (an Embree occlusion ray that stops end_margin_m short of the sample, so that the
-// sample's own triangle does not count). Defaults follow the simulated sensor (SPEC §3.5, §11).
+// sample's own triangle does not count). Defaults follow the simulated sensor (docs/ARCHITECTURE.md §4.1, §6.5).
 struct VisibilityOptions {
   std::vector<Eigen::Vector3d> viewpoints;  // empty: every sample counts as visible
   double min_range_m = 0.0;

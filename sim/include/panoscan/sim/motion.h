@@ -1,4 +1,4 @@
-// The wobbling in-place rotator (SPEC §3.3).
+// The wobbling in-place rotator (docs/ARCHITECTURE.md §6.3).
 //
 // world_from_axis(t) = T(floor_point) * Tilt * Rz(start_heading + azimuth(t)): the ideal pose.
 // world_from_bracket(t) = world_from_axis(t) * axis_from_bracket * Wobble(t), the wobble being a

@@ -1,4 +1,4 @@
-// Depth noise models (SPEC §11): Handa et al. 2014 (ICL-NUIM) as fixed by the SPEC, its
+// Depth noise models (docs/ARCHITECTURE.md §4): Handa et al. 2014 (ICL-NUIM) as fixed there, its
 // ICL-NUIM-code variant, a real-Kinect-level preset, and the switchable interference speckle.
 #pragma once
 

@@ -1,4 +1,5 @@
-// Simulator settings: plain structs whose defaults are the paper's set-up (§6.1) and SPEC §3.
+// Simulator settings: plain structs whose defaults are the paper's set-up (paper §6.1;
+// docs/ARCHITECTURE.md §6).
 // Filled from a config file plus command-line overrides by sim_options_from_config(); every
 // field has its config key in the comment.
 #pragma once

@@ -1,4 +1,4 @@
-// Unsynchronized shutters (SPEC §3.4): each camera runs its own 30 Hz clock with a random start
+// Unsynchronized shutters (docs/ARCHITECTURE.md §6.4): each camera runs its own 30 Hz clock with a random start
 // offset in [0, 1/fps), a small rate error and per-frame jitter. Timestamps are rounded to whole
 // microseconds (what the files store) and are unique across all cameras.
 #pragma once

@@ -1,5 +1,5 @@
 // The scan simulator: renders one scanning position of a scene with the rig on the wobbling
-// rotator and writes the scan (SPEC §3.6) with its ground truth. Also usable in memory.
+// rotator and writes the scan (docs/ARCHITECTURE.md §5) with its ground truth. Also usable in memory.
 #pragma once
 
 #include <filesystem>

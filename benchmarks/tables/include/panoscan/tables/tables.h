@@ -1,4 +1,4 @@
-// The paper's tables and figures as one-command drivers (SPEC §9, issue "tables"). Each driver
+// The paper's tables and figures as one-command drivers (docs/ARCHITECTURE.md §14.1, issue "tables"). Each driver
 // simulates the built-in scans it needs (cached on disk, keyed by everything that changes
 // them), runs the methods in memory and returns its tables; run_and_write() also writes them as
 // Markdown, CSV and JSON (settings, version, machine, date) under <out>/<name>/.

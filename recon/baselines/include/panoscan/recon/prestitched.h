@@ -95,7 +95,7 @@ struct StitchedScanInfo {
   double seconds = 0.0;
 };
 
-// Stitches every group and writes the sequence as a one-camera scan directory (SPEC §3.6 format,
+// Stitches every group and writes the sequence as a one-camera scan directory (the format of docs/ARCHITECTURE.md §5,
 // camera "stitched", 16-bit depth at the scan's depth scale), atomically. `poses`: see
 // virtual_from_cameras; when given it must match the scan (check_rig_trajectory).
 StitchedScanInfo write_stitched_scan(const ScanIndex& scan, const std::filesystem::path& out_dir,

@@ -43,7 +43,7 @@ struct FrontendOptions {
   double cross_max_deviation_deg = 3.0;  // cross-camera transform vs calibrated extrinsics
   double cross_max_deviation_m = 0.10;
   double min_depth_m = 0.3, max_depth_m = 8.0;
-  double depth_noise_coefficient = 9.49e-4;  // sigma_Z = c * Z^2 (SPEC §11, Handa et al. 2014)
+  double depth_noise_coefficient = 9.49e-4;  // sigma_Z = c * Z^2 (ARCHITECTURE.md §4.1, Handa et al. 2014)
   std::uint64_t seed = 1;
   int threads = 0;                  // 0 = all cores
   std::vector<int> sensors;         // sensors to use (empty = all)

@@ -114,7 +114,7 @@ struct FusionOptions {
   double tv_epsilon_m = 1e-4;        // smoothing of the TV norm
   double tsa_epsilon_m2 = 1e-7;      // smoothing of the TSA norm
   // panorama.tolerance: a stage stops after 3 steps in a row that lower its objective by less
-  // (relative); 1e-5 ends each stage once the depths move by well under a millimetre.
+  // than this (relative); see recon/panorama/README.md, "Speed and memory", for the choice.
   double relative_tolerance = 1e-5;
   double max_sigma_m = 0.15;         // panorama.max_sigma_m: flag pixels with sigma_z above
   // panorama.max_coupled_depth_jump_m: adjacent pixels whose median depths differ by more are not

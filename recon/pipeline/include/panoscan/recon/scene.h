@@ -1,6 +1,6 @@
-// The whole method on one scene (SPEC §2): per scanning position, tracking (§4.1, or given
-// poses) and panorama construction (§4.2); then registration between panoramas (§5.1), a pose
-// graph when the registrations are redundant, and MAP integration (§5.2) into one cloud.
+// The whole method on one scene (docs/ARCHITECTURE.md §2, §12): per scanning position, tracking
+// (paper §4.1, or given poses) and panorama construction (§4.2); then registration between panoramas
+// (§5.1), a pose graph when the registrations are redundant, and MAP integration (§5.2) into one cloud.
 //
 // Frames: the scene frame is the frame of the first scan's tracking (its reference camera's
 // first frame), or, with given trajectories, whatever frame those are in. Panorama k sits at

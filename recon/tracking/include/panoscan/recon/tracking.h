@@ -6,7 +6,7 @@
 // Factors:
 //   Eq. 1 observation: p = d [u, v, 1] against K (T_ci^-1 y_j), covariance of p propagated from
 //          diag(sigma_u^2, sigma_v^2, sigma_d^2) (sigma_u,v = 1.2^octave px, sigma_d = 9.49e-4 d^2 m,
-//          SPEC §11), Huber kernel;
+//          docs/ARCHITECTURE.md §4.1), Huber kernel;
 //   Eq. 2 pose regularisation: log(T_ci^-1 T_u R(alpha_ci) T_u^-1 T_r T_c) with 5 mm / 0.5 deg std;
 //   Eq. 3 velocity smoothness over all frames of all cameras in timestamp order.
 // Choices (documented in tracking.cpp): rotations as unit quaternions on Ceres' QuaternionManifold
@@ -18,14 +18,14 @@
 // The rig pose T_r (world_from_rig, a deviation from the paper): the reference camera's pose at
 // alpha = 0 without wobble. The paper's Eq. 2 has T_r = I with the first reference frame fixed as
 // the world, which makes that frame's own wobble (0.5 deg per axis) an extrinsic error of the
-// reference camera that nothing can absorb: the fit tilts the axis to compromise (measured on
-// office SO-1 / living room SL-1 at 320x240, n = 16: axis 0.60 / 0.71 deg off, vs 0.05 / 0.07 deg
-// with T_r free). T_r is free (6 DoF); its rotation about the axis trades with a shift of every
-// azimuth, so the first reference azimuth is held instead.
+// reference camera that nothing can absorb, and the fit tilts the axis to compromise. T_r is free
+// (6 DoF); its rotation about the axis trades with a shift of every azimuth, so the first reference
+// azimuth is held instead.
 // Two more factors beyond the paper (TrackingOptions::shared_wobble, extrinsics_null_prior): the
-// wobble is the bracket's, so frames of different cameras a few ms apart share it (halves the ATE
-// on SO-1 / SL-1); and T_c is held at the calibration along the two directions nothing observes
-// without cross-camera landmarks (its rotation about and slide along the axis).
+// wobble is the bracket's, so frames of different cameras a few ms apart share it; and T_c is held
+// at the calibration along the two directions nothing observes without cross-camera landmarks (its
+// rotation about and slide along the axis). Measurements for T_r and both factors:
+// recon/tracking/README.md.
 // Initialisation: the reference camera's frame-to-frame RANSAC transforms are chained; an axis is
 // fitted to those poses (direction: mean rotation vector, point: least-squares fixed point of the
 // rotations); alpha_ci is the reference rotation about that axis, interpolated in time for the
@@ -80,7 +80,8 @@ struct TrackingOptions {
   bool velocity_smoothness = true;              // track.velocity_smoothness: Eq. 3 on/off (ablation)
   double reg_translation_std_m = 0.005;         // track.reg_translation_std_m (paper §6.1)
   double reg_rotation_std_deg = 0.5;            // track.reg_rotation_std_deg (paper §6.1)
-  double angular_accel_std_deg_s2 = 1.0;        // track.angular_accel_std_deg_s2 (SPEC §4; paper: variance "1/s^2")
+  // Eq. 3's confidence as an angular-acceleration std (docs/ARCHITECTURE.md §8.2; paper: variance "1/s^2").
+  double angular_accel_std_deg_s2 = 1.0;        // track.angular_accel_std_deg_s2
   // true: the std of v_{i,i+1} - v_{i-1,i} is accel_std * (t_{i+1} - t_{i-1}) / 2 (the velocity change a
   // random acceleration causes over the interval); false: accel_std * 1 s, the paper's constant Omega_vel.
   bool velocity_std_scales_with_dt = true;      // track.velocity_std_scales_with_dt
@@ -89,24 +90,23 @@ struct TrackingOptions {
   // and slide along the axis; the prior holds those two directions at the calibration.
   double extrinsics_prior_translation_std_m = 0.01;  // track.extrinsics_prior_translation_std_m
   double extrinsics_prior_rotation_std_deg = 1.0;    // track.extrinsics_prior_rotation_std_deg
-  // Shared wobble (beyond the paper; SharedWobbleCost in tracking_factors.h): consecutive frames of
-  // different cameras dt apart share the rig's wobble up to its change over dt, std = rate * dt (+ a
-  // floor for timestamp jitter); linked only while rate * dt is below Eq. 2's std (beyond that the
-  // two deviations are as good as independent). Rates: the paper's 0.5 deg / 5 mm wobble in a band
-  // of about 0.5-4 Hz (rms frequency 2.5 Hz) changes at 2 pi 2.5 Hz x std = 8 deg/s, 0.08 m/s.
   // Holds T_c at the calibration (0.1 mm, 0.01 deg) along its two unobserved directions (rotation
   // about and sliding along the axis), where only weak second-order forces act.
   bool extrinsics_null_prior = true;            // track.extrinsics_null_prior
+  // Shared wobble (beyond the paper; SharedWobbleCost in tracking_factors.h): consecutive frames of
+  // different cameras dt apart share the rig's wobble up to its change over dt, std = rate * dt (+ a
+  // floor for timestamp jitter); linked only while rate * dt is below Eq. 2's std (beyond that the
+  // two deviations are as good as independent). The rates are the std of the wobble's rate of
+  // change (how the defaults follow from the paper's wobble: recon/tracking/README.md).
   bool shared_wobble = true;                    // track.shared_wobble
   double wobble_rate_std_deg_s = 8.0;           // track.wobble_rate_std_deg_s
   double wobble_rate_std_m_s = 0.08;            // track.wobble_rate_std_m_s
   double same_time_s = 1e-3;                    // track.same_time_s: frames closer in time share one azimuth
   double huber_delta = 2.796;                   // track.huber_delta: on the whitened residual (sqrt of chi2(3) 95%)
-  double depth_noise_coefficient = 9.49e-4;     // track.depth_noise_coefficient: sigma_d = c d^2 (SPEC §11)
+  double depth_noise_coefficient = 9.49e-4;     // track.depth_noise_coefficient: sigma_d = c d^2, ARCHITECTURE.md §4.1
   int max_iterations = 100;                     // track.max_iterations
-  // track.function_tolerance: stop when an iteration lowers the cost by less than this fraction.
-  // 1e-5 against the earlier 1e-7 (320x240, seed 1): the same ATE to 0.006 mm on SO-1 and SL-1 at
-  // n = 16 and on SO-1 at n = 8, with 2.1-3.7x less solve time (SO-1 n = 8: 93 -> 31 iterations).
+  // track.function_tolerance: stop when an iteration lowers the cost by less than this fraction
+  // (why 1e-5: recon/tracking/README.md, "Solver tolerance").
   double function_tolerance = 1e-5;
   bool log_iterations = false;                  // track.log_iterations: one log line per LM iteration (cost, times)
   std::string linear_solver = "sparse_schur";   // track.linear_solver: sparse_schur | sparse_normal_cholesky
