@@ -27,7 +27,7 @@ std::size_t count_entries(const fs::path& dir) {
 }  // namespace
 
 TEST(Cli, HelpOnEverySubcommand) {
-  for (const std::string sub : {"", "sim", "demo", "scene", "scene export"}) {
+  for (const std::string sub : {"", "sim", "demo", "scene", "scene export", "eval flat-pixels"}) {
     const RunResult r = run(sub + " --help");
     EXPECT_EQ(r.exit_code, 0) << sub;
     EXPECT_NE(r.output.find("Usage"), std::string::npos) << sub;
@@ -114,4 +114,42 @@ TEST(Cli, TablesListsItsDriversAndRejectsBadNamesSizesAndNoise) {
   // The noise name is checked before anything is simulated or written.
   expect_failure_naming(run("tables table6 --noise loud" + out), {"noise.preset", "loud"});
   EXPECT_FALSE(fs::exists(tmp / "out" / "loud" / "table6" / "table6.md"));
+}
+
+// scene.texture: icl (default), rich, plain for the built-in scenes; an unknown value or the key on
+// a scene file fails naming the key; the densities export different materials.
+TEST(Cli, SceneTextureDensityOption) {
+  panoscan::testutil::TempDir tmp("cli-texture");
+  const std::string small = " --resolution 32x24 --every 300 --threads 1";
+  expect_failure_naming(run("sim --set scene.texture=fancy --out " + (tmp / "a").string() + small),
+                        {"scene.texture", "fancy", "icl, rich, plain"});
+  expect_failure_naming(run("scene export --scene office --set scene.texture=fancy --out " + (tmp / "b").string()),
+                        {"scene.texture", "fancy"});
+  expect_failure_naming(run("tables table6 --set scene.texture=fancy --out " + (tmp / "c").string()),
+                        {"scene.texture", "fancy"});
+  EXPECT_FALSE(fs::exists(tmp / "a"));
+  EXPECT_FALSE(fs::exists(tmp / "b"));
+
+  const RunResult plain = run("scene export --scene office --set scene.texture=plain --out " + (tmp / "plain").string());
+  ASSERT_EQ(plain.exit_code, 0) << plain.output;
+  EXPECT_EQ(count_entries(tmp / "plain" / "textures"), 0u);
+  const RunResult icl = run("scene export --scene office --out " + (tmp / "icl").string());
+  ASSERT_EQ(icl.exit_code, 0) << icl.output;
+  std::ifstream mtl(tmp / "icl" / "office.mtl");
+  const std::string materials((std::istreambuf_iterator<char>(mtl)), std::istreambuf_iterator<char>());
+  EXPECT_NE(materials.find("newmtl wall_paint_light_grey"), std::string::npos);
+  EXPECT_EQ(materials.find("brick_wall"), std::string::npos);
+
+  // A scene file keeps its own materials: the key is refused rather than ignored.
+  expect_failure_naming(run("sim --scene " + (tmp / "icl" / "office.obj").string() + " --set scene.texture=rich --out " +
+                            (tmp / "d").string() + small),
+                        {"office.obj", "scene.texture"});
+  const RunResult rich = run("sim --scene office --set scene.texture=rich --out " + (tmp / "e").string() + small);
+  EXPECT_EQ(rich.exit_code, 0) << rich.output;
+}
+
+TEST(Cli, EvalFlatPixels) {
+  panoscan::testutil::TempDir tmp("cli-flat");
+  expect_failure_naming(run("eval flat-pixels"), {"--panorama"});
+  expect_failure_naming(run("eval flat-pixels --image " + (tmp / "none.png").string()), {"none.png"});
 }
