@@ -204,6 +204,37 @@ void run_scene_export(const SceneExportArguments& a) {
   std::cout << fmt::format("exported {} ({} triangles) to {}\n", scene.name, scene.mesh.num_triangles(), out);
 }
 
+void run_scene_generate(const SceneGenerateArguments& a) {
+  if (a.out.empty()) throw make_error("--out", "", "an output directory is required");
+  if (a.seed < 0) throw make_error("--seed", "", "a seed >= 0 is required");
+  Config config = load_config(a.config_file, a.overrides);
+  if (!a.texture.empty()) config.set("scene.texture", a.texture);
+  scenes::RoomSpec spec;
+  spec.style = scenes::scene_style_from_config(config);
+  config.check_all_used();
+  spec.kind = scenes::room_kind_from_string(a.kind, "--kind");
+  spec.seed = static_cast<std::uint64_t>(a.seed);
+  const scenes::GeneratedRoom room = scenes::generate_room(spec);
+  scenes::export_scene(room.scene, a.out);
+  Eigen::Vector2f lo = room.outline.front(), hi = lo;
+  for (const auto& corner : room.outline) {
+    lo = lo.cwiseMin(corner);
+    hi = hi.cwiseMax(corner);
+  }
+  std::cout << fmt::format("generated {} ({}, {:.2f} x {:.2f} m, {:.2f} m high, texture {}): {} triangles, {} pieces "
+                           "placed; positions:",
+                           room.scene.name, room.outline.size() == 6 ? "L-shaped" : "rectangular", hi.x() - lo.x(),
+                           hi.y() - lo.y(), room.height, scenes::to_string(spec.style.texture),
+                           room.scene.mesh.num_triangles(), room.furniture.size());
+  for (std::size_t i = 0; i < room.scene.positions.size(); ++i) {
+    const auto& p = room.scene.positions[i];
+    std::cout << fmt::format(" {} ({:.2f}, {:.2f}; clearance {:.2f} m)", p.name, p.floor_point.x(), p.floor_point.y(),
+                             room.clearance_m[i]);
+  }
+  std::cout << fmt::format("\nwrote {}/{}.obj (+ .mtl, textures/, _groundtruth.ply, .positions.json)\n", a.out,
+                           room.scene.name);
+}
+
 void run_recon_track(const ReconTrackArguments& a) {
   Config config = load_config(a.config_file, a.overrides);
   if (!a.mode.empty()) config.set("track.mode", a.mode);

@@ -35,6 +35,14 @@ struct SceneExportArguments {
 };
 void run_scene_export(const SceneExportArguments& arguments);
 
+struct SceneGenerateArguments {
+  std::string kind, out, texture, config_file;  // texture: shortcut for --set scene.texture=
+  long long seed = -1;
+  std::vector<std::string> overrides;
+};
+// Generates a room (scenes::generate_room) and exports it like `scene export`.
+void run_scene_generate(const SceneGenerateArguments& arguments);
+
 struct EvalCloudArguments {
   std::string mesh, cloud, scan, coloured_ply, json, config_file;
   std::vector<std::string> viewpoints_from, overrides;

@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
   app.add_flag("-q,--quiet", quiet, "warnings and errors only");
 
   // scene list | export
-  CLI::App* scene_cmd = app.add_subcommand("scene", "built-in scenes: list them or export them as files");
+  CLI::App* scene_cmd = app.add_subcommand("scene", "scenes: list or export the built-in ones, generate seeded rooms");
   scene_cmd->require_subcommand(1);
   CLI::App* scene_list = scene_cmd->add_subcommand("list", "list built-in scenes and their scanning positions");
   CLI::App* scene_export = scene_cmd->add_subcommand("export", "write a scene as OBJ+MTL+PNG, ground-truth PLY, positions");
@@ -75,6 +75,16 @@ int main(int argc, char** argv) {
   scene_export->add_option("--config", export_args.config_file, "YAML/JSON config file (key: scene.texture)");
   scene_export->add_option("--set", export_args.overrides,
                            "built-in scenes' texture density: --set scene.texture=icl|rich|plain (default icl)");
+
+  SceneGenerateArguments generate_args;
+  CLI::App* scene_generate = scene_cmd->add_subcommand(
+      "generate", "generate a seeded room (rectangular or L-shaped, furnished, 2-6 scanning positions) and export it");
+  scene_generate->add_option("--kind", generate_args.kind, "office or living_room")->required();
+  scene_generate->add_option("--seed", generate_args.seed, "the room's seed (same seed, same files)")->required();
+  scene_generate->add_option("--texture", generate_args.texture, "texture density: icl (default), rich or plain");
+  scene_generate->add_option("--out", generate_args.out, "output directory")->required();
+  scene_generate->add_option("--config", generate_args.config_file, "YAML/JSON config file (key: scene.texture)");
+  scene_generate->add_option("--set", generate_args.overrides, "--set scene.texture=icl|rich|plain");
 
   // sim
   SimArguments sim_args;
@@ -216,6 +226,8 @@ int main(int argc, char** argv) {
       run_scene_list();
     } else if (*scene_export) {
       run_scene_export(export_args);
+    } else if (*scene_generate) {
+      run_scene_generate(generate_args);
     } else if (*sim_cmd) {
       run_sim(sim_args, {});
     } else if (*eval_cloud) {

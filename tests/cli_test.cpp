@@ -27,7 +27,7 @@ std::size_t count_entries(const fs::path& dir) {
 }  // namespace
 
 TEST(Cli, HelpOnEverySubcommand) {
-  for (const std::string sub : {"", "sim", "demo", "scene", "scene export", "eval flat-pixels"}) {
+  for (const std::string sub : {"", "sim", "demo", "scene", "scene export", "scene generate", "eval flat-pixels"}) {
     const RunResult r = run(sub + " --help");
     EXPECT_EQ(r.exit_code, 0) << sub;
     EXPECT_NE(r.output.find("Usage"), std::string::npos) << sub;
@@ -152,4 +152,35 @@ TEST(Cli, EvalFlatPixels) {
   panoscan::testutil::TempDir tmp("cli-flat");
   expect_failure_naming(run("eval flat-pixels"), {"--panorama"});
   expect_failure_naming(run("eval flat-pixels --image " + (tmp / "none.png").string()), {"none.png"});
+}
+
+// scene generate writes an ordinary scene folder that sim accepts, the same bytes for the same seed.
+TEST(Cli, SceneGenerateThenSim) {
+  panoscan::testutil::TempDir tmp("cli-generate");
+  expect_failure_naming(run("scene generate --kind kitchen --seed 1 --out " + (tmp / "k").string()), {"--kind", "kitchen"});
+  expect_failure_naming(run("scene generate --kind office --seed 1 --texture loud --out " + (tmp / "k").string()),
+                        {"scene.texture", "loud"});
+  EXPECT_FALSE(fs::exists(tmp / "k"));
+  for (const std::string kind : {"office", "living_room"}) {
+    const std::string dir = (tmp / kind).string();
+    const RunResult generated = run("scene generate --kind " + kind + " --seed 3 --out " + dir);
+    ASSERT_EQ(generated.exit_code, 0) << generated.output;
+    const std::string obj = dir + "/" + kind + "_seed3.obj";
+    EXPECT_TRUE(fs::exists(obj)) << generated.output;
+    EXPECT_TRUE(fs::exists(dir + "/" + kind + "_seed3_groundtruth.ply"));
+    EXPECT_TRUE(fs::exists(dir + "/" + kind + "_seed3.positions.json"));
+    const RunResult sim = run("sim --scene " + obj + " --position 1 --resolution 32x24 --every 300 --threads 1 --out " +
+                              (tmp / (kind + "-scan")).string());
+    EXPECT_EQ(sim.exit_code, 0) << sim.output;
+    EXPECT_TRUE(fs::exists(tmp / (kind + "-scan") / "rig.json"));
+  }
+  const RunResult again = run("scene generate --kind office --seed 3 --set scene.texture=icl --out " + (tmp / "again").string());
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  for (const std::string file : {"office_seed3.obj", "office_seed3.mtl", "office_seed3.positions.json"}) {
+    std::ifstream a(tmp / "office" / file, std::ios::binary), b(tmp / "again" / file, std::ios::binary);
+    const std::string bytes_a((std::istreambuf_iterator<char>(a)), std::istreambuf_iterator<char>());
+    const std::string bytes_b((std::istreambuf_iterator<char>(b)), std::istreambuf_iterator<char>());
+    EXPECT_FALSE(bytes_a.empty());
+    EXPECT_TRUE(bytes_a == bytes_b) << file;
+  }
 }

@@ -1,5 +1,6 @@
 // Built-in ICL-NUIM-style scenes (the paper's living room "SL" and office "SO"), generated
-// procedurally and deterministically, and their export to ordinary mesh files.
+// procedurally and deterministically, a seeded generator of further rooms, and their export to
+// ordinary mesh files.
 //
 // Scene frame: metres, z up, floor at z = 0. Texture coordinates are metric (textures tile). Each
 // scene carries its scanning positions and a few point lights.
@@ -50,6 +51,46 @@ bool is_builtin_scene(const std::string& name);
 // Builds a built-in scene. Throws panoscan::Error for an unknown name (the message lists the known
 // ones). "living_room" has positions SL-1, SL-2; "office" has SO-1 .. SO-4.
 panoscan::Scene make_builtin_scene(const std::string& name, const SceneStyle& style = {});
+
+// ------------------------------------------------------------------------------------------------
+// The seeded room generator. A room of `kind` is rectangular or L-shaped, 3-8 m across and
+// 2.4-3 m high, with a door and one to three windows, furniture from the built-in scenes' library
+// against its walls (bounding boxes of the drawn geometry pairwise disjoint, clear of the door's
+// swing and the windows), pictures on free stretches of wall, ceiling lights, and 2-6 scanning
+// positions (named GO-k for offices, GL-k for living rooms) whose rig axis is at least 0.6 m from
+// every surface above the floor covering up to 1.5 m (so the cameras, <= 0.09 m off the axis, stay
+// 0.5 m away), each 1.5-3 m from the previous one and sharing at least 60% of its view with it
+// (evenly spread rays from one position whose hit points the other sees, both ways). All of it
+// follows from the seed alone: the same spec gives the same scene, bit for bit.
+enum class RoomKind { kOffice, kLivingRoom };
+std::vector<std::string> room_kind_names();  // {"office", "living_room"}
+std::string to_string(RoomKind kind);
+RoomKind room_kind_from_string(const std::string& value, const std::string& field = "--kind");
+
+struct RoomSpec {
+  RoomKind kind = RoomKind::kOffice;
+  std::uint64_t seed = 1;
+  SceneStyle style;
+};
+// "<kind>_seed<seed>", e.g. "office_seed7": the scene's name and the exported files' stem.
+std::string generated_room_name(const RoomSpec& spec);
+
+struct GeneratedRoom {
+  panoscan::Scene scene;
+  std::vector<Eigen::Vector2f> outline;  // floor plan, counter-clockwise seen from above
+  float height = 0.f;
+  struct Placed {
+    std::string what;
+    Eigen::Vector3f lo, hi;  // bounding box of its triangles
+  };
+  std::vector<Placed> furniture;   // pieces and wall decorations
+  std::vector<double> clearance_m;  // per position: rig axis to the nearest surface above the floor
+  std::vector<double> shared_view;  // per consecutive pair of positions
+  int attempt = 0;                  // layouts discarded before this one (no room for positions)
+};
+// Throws Error naming the spec if no layout of 24 leaves room for two positions (not seen in
+// practice: rooms are at least 3 m x 3 m).
+GeneratedRoom generate_room(const RoomSpec& spec);
 
 // Writes, each file atomically, into out_dir (created if missing):
 //   <name>.obj, <name>.mtl          the textured mesh (map_Kd textures/<texture>.png; uvs repeat;
