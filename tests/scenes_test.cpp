@@ -787,6 +787,40 @@ TEST(LoadScene, PerVertexColourIsRenderedInterpolated) {
     EXPECT_LT((ground_truth.vertex_colours[i] - scene.mesh.vertex_colours[i]).cwiseAbs().maxCoeff(), 0.5f / 255.f + 1e-6f);
 }
 
+// glTF's COLOR_0 is read as per-vertex colour too.
+TEST(LoadScene, ReadsGltfVertexColours) {
+  TempDir dir("load-scene");
+  std::string buffer;
+  const float positions[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  const float colours[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  const std::uint16_t indices[4] = {0, 1, 2, 0};
+  buffer.append(reinterpret_cast<const char*>(positions), sizeof(positions));
+  buffer.append(reinterpret_cast<const char*>(colours), sizeof(colours));
+  buffer.append(reinterpret_cast<const char*>(indices), sizeof(indices));
+  write_text(dir / "tri.bin", buffer);
+  write_text(dir / "tri.gltf", R"({
+    "asset": {"version": "2.0"},
+    "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "COLOR_0": 1}, "indices": 2}]}],
+    "buffers": [{"uri": "tri.bin", "byteLength": 80}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 36},
+                    {"buffer": 0, "byteOffset": 72, "byteLength": 6}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+                  {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"},
+                  {"bufferView": 2, "componentType": 5123, "count": 3, "type": "SCALAR"}]})");
+  write_text(dir / "positions.json", kPositionsJson);
+  const Scene scene = load_scene_file(dir / "tri.gltf");
+  ASSERT_EQ(scene.mesh.num_triangles(), 1u);
+  ASSERT_EQ(scene.mesh.vertex_colours.size(), scene.mesh.vertices.size());
+  for (std::size_t i = 0; i < scene.mesh.vertices.size(); ++i) {
+    const Eigen::Vector3f& p = scene.mesh.vertices[i];
+    const Eigen::Vector3f expected = p.x() > 0.5f ? Eigen::Vector3f(0, 1, 0)
+                                     : p.y() > 0.5f ? Eigen::Vector3f(0, 0, 1)
+                                                    : Eigen::Vector3f(1, 0, 0);
+    EXPECT_TRUE(scene.mesh.vertex_colours[i].isApprox(expected, 1e-6f)) << p.transpose();
+  }
+}
+
 TEST(LoadScene, VertexColoursAreValidated) {
   Scene scene;
   scene.mesh.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
