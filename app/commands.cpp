@@ -14,8 +14,10 @@
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
+#include "panoscan/core/image_io.h"
 #include "panoscan/eval/cloud_evaluation.h"
 #include "panoscan/eval/error_stats.h"
+#include "panoscan/eval/image_texture.h"
 #include "panoscan/eval/report.h"
 #include "panoscan/eval/trajectory_evaluation.h"
 #include "panoscan/core/point_cloud.h"
@@ -38,7 +40,14 @@ namespace {
 
 
 
-SimOptions resolve_sim_options(const SimArguments& a, const std::vector<std::string>& defaults) {
+// The sim's options and the scene's style (scene.texture), from one config.
+struct ResolvedSim {
+  SimOptions options;
+  scenes::SceneStyle style;
+  bool style_given = false;
+};
+
+ResolvedSim resolve_sim_options(const SimArguments& a, const std::vector<std::string>& defaults) {
   Config config = a.config_file.empty() ? Config() : Config::load_file(a.config_file);
   for (const auto& d : defaults)
     if (!config.has(d.substr(0, d.find('=')))) config.apply_override(d);
@@ -57,9 +66,12 @@ SimOptions resolve_sim_options(const SimArguments& a, const std::vector<std::str
   if (a.every >= 0) config.set("output.every", std::to_string(a.every));
   if (a.threads >= 0) config.set("threads", std::to_string(a.threads));
   if (a.clean_depth) config.set("output.clean_depth", "true");
-  SimOptions options = sim_options_from_config(config);
+  ResolvedSim resolved;
+  resolved.options = sim_options_from_config(config);
+  resolved.style_given = config.has("scene.texture");
+  resolved.style = scenes::scene_style_from_config(config);
   config.check_all_used();
-  return options;
+  return resolved;
 }
 
 int find_position(const Scene& scene, const std::string& position) {
@@ -93,8 +105,9 @@ Config load_config(const std::string& file, const std::vector<std::string>& over
 
 void run_sim(const SimArguments& a, const std::vector<std::string>& defaults) {
   if (a.out.empty()) throw make_error("--out", "", "an output directory is required");
-  const SimOptions options = resolve_sim_options(a, defaults);
-  const Scene scene = load_scene(a.scene);
+  const ResolvedSim resolved = resolve_sim_options(a, defaults);
+  const SimOptions& options = resolved.options;
+  const Scene scene = load_scene(a.scene, resolved.style, resolved.style_given);
   const int position = find_position(scene, a.position);
   const Simulator simulator(scene, position, options);
   const auto start = std::chrono::steady_clock::now();
@@ -133,6 +146,34 @@ void run_eval_cloud(const EvalCloudArguments& a) {
 }
 
 
+void run_eval_flat(const EvalFlatArguments& a) {
+  if (a.panorama.empty() == a.image.empty())
+    throw make_error("--panorama", "", "give exactly one of --panorama (a panorama folder) or --image");
+  ImageF32 grey;
+  ImageU8 valid;
+  if (!a.panorama.empty()) {
+    const Panorama panorama = read_panorama(a.panorama);
+    grey = eval::grey_levels_from_unit(panorama.colour);
+    valid = ImageU8(panorama.depth.width, panorama.depth.height, 1, 0);
+    for (std::size_t i = 0; i < valid.data.size(); ++i) valid.data[i] = panorama.depth.data[i] > 0.f;
+  } else {
+    grey = eval::grey_levels(read_rgb(a.image));
+  }
+  const eval::FlatPixelShare share = eval::flat_pixel_share(grey, valid, a.window, a.threshold);
+  std::cout << fmt::format("{}: {:.1f}% of {} valid pixels flat (grey-level std < {} over {}x{})\n",
+                           a.panorama.empty() ? a.image : a.panorama, 100.0 * share.share, share.valid_pixels,
+                           a.threshold, a.window, a.window);
+  if (!a.json.empty()) {
+    nlohmann::json j = {{"input", a.panorama.empty() ? a.image : a.panorama},
+                        {"window", a.window},
+                        {"std_threshold", a.threshold},
+                        {"valid_pixels", share.valid_pixels},
+                        {"flat_pixels", share.flat_pixels},
+                        {"flat_share", share.share}};
+    write_file_atomic(a.json, j.dump(2) + "\n");
+  }
+}
+
 void run_eval_traj(const EvalTrajArguments& a) {
   Config config = load_config(a.config_file, a.overrides);
   const eval::TrajectoryEvalOptions options = eval::trajectory_eval_options_from_config(config);
@@ -154,10 +195,47 @@ void run_scene_list() {
   }
 }
 
-void run_scene_export(const std::string& scene_name, const std::string& out) {
-  const Scene scene = load_scene(scene_name);
+void run_scene_export(const SceneExportArguments& a) {
+  Config config = load_config(a.config_file, a.overrides);
+  const bool style_given = config.has("scene.texture");
+  const scenes::SceneStyle style = scenes::scene_style_from_config(config);
+  config.check_all_used();
+  const std::string& scene_name = a.scene;
+  const std::string& out = a.out;
+  const Scene scene = load_scene(scene_name, style, style_given);
   scenes::export_scene(scene, out);
   std::cout << fmt::format("exported {} ({} triangles) to {}\n", scene.name, scene.mesh.num_triangles(), out);
+}
+
+void run_scene_generate(const SceneGenerateArguments& a) {
+  if (a.out.empty()) throw make_error("--out", "", "an output directory is required");
+  if (a.seed < 0) throw make_error("--seed", "", "a seed >= 0 is required");
+  Config config = load_config(a.config_file, a.overrides);
+  if (!a.texture.empty()) config.set("scene.texture", a.texture);
+  scenes::RoomSpec spec;
+  spec.style = scenes::scene_style_from_config(config);
+  config.check_all_used();
+  spec.kind = scenes::room_kind_from_string(a.kind, "--kind");
+  spec.seed = static_cast<std::uint64_t>(a.seed);
+  const scenes::GeneratedRoom room = scenes::generate_room(spec);
+  scenes::export_scene(room.scene, a.out);
+  Eigen::Vector2f lo = room.outline.front(), hi = lo;
+  for (const auto& corner : room.outline) {
+    lo = lo.cwiseMin(corner);
+    hi = hi.cwiseMax(corner);
+  }
+  std::cout << fmt::format("generated {} ({}, {:.2f} x {:.2f} m, {:.2f} m high, texture {}): {} triangles, {} pieces "
+                           "placed; positions:",
+                           room.scene.name, room.outline.size() == 6 ? "L-shaped" : "rectangular", hi.x() - lo.x(),
+                           hi.y() - lo.y(), room.height, scenes::to_string(spec.style.texture),
+                           room.scene.mesh.num_triangles(), room.furniture.size());
+  for (std::size_t i = 0; i < room.scene.positions.size(); ++i) {
+    const auto& p = room.scene.positions[i];
+    std::cout << fmt::format(" {} ({:.2f}, {:.2f}; clearance {:.2f} m)", p.name, p.floor_point.x(), p.floor_point.y(),
+                             room.clearance_m[i]);
+  }
+  std::cout << fmt::format("\nwrote {}/{}.obj (+ .mtl, textures/, _groundtruth.ply, .positions.json)\n", a.out,
+                           room.scene.name);
 }
 
 void run_recon_track(const ReconTrackArguments& a) {
@@ -349,6 +427,10 @@ void run_tables(const TablesArguments& a) {
   const std::vector<std::string> noises =
       a.noise == "both" ? std::vector<std::string>{"handa", "kinect"} : std::vector<std::string>{a.noise};
   if (a.seed < 0) throw make_error("--seed", "", "must not be negative");
+  // --set: only the scene's style applies to the tables (their sim settings are the size preset's).
+  Config config = load_config("", a.overrides);
+  const std::string texture = scenes::to_string(scenes::scene_style_from_config(config).texture);
+  config.check_all_used();
   std::vector<tables::TablesOptions> runs;
   for (const auto& noise : noises) {
     tables::TablesOptions options;
@@ -359,6 +441,7 @@ void run_tables(const TablesArguments& a) {
     options.threads = a.threads;
     options.seed = std::uint64_t(a.seed);
     options.only = a.only;
+    options.texture = texture;
     tables::check_tables_options(options);  // every run is checked before the first starts
     runs.push_back(options);
   }

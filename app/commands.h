@@ -29,7 +29,19 @@ struct SimArguments {
 void run_sim(const SimArguments& arguments, const std::vector<std::string>& defaults);
 
 void run_scene_list();
-void run_scene_export(const std::string& scene, const std::string& out);
+struct SceneExportArguments {
+  std::string scene, out, config_file;
+  std::vector<std::string> overrides;  // scene.texture (built-in scenes)
+};
+void run_scene_export(const SceneExportArguments& arguments);
+
+struct SceneGenerateArguments {
+  std::string kind, out, texture, config_file;  // texture: shortcut for --set scene.texture=
+  long long seed = -1;
+  std::vector<std::string> overrides;
+};
+// Generates a room (scenes::generate_room) and exports it like `scene export`.
+void run_scene_generate(const SceneGenerateArguments& arguments);
 
 struct EvalCloudArguments {
   std::string mesh, cloud, scan, coloured_ply, json, config_file;
@@ -37,6 +49,14 @@ struct EvalCloudArguments {
   int threads = -1;
 };
 void run_eval_cloud(const EvalCloudArguments& arguments);
+
+struct EvalFlatArguments {
+  std::string panorama, image, json;  // one of panorama (a `recon panorama` folder) or image (PNG/JPEG)
+  int window = 7;
+  double threshold = 2.0;
+};
+// Share of flat pixels (grey-level std < threshold over window x window) among the valid ones.
+void run_eval_flat(const EvalFlatArguments& arguments);
 
 struct EvalTrajArguments {
   std::string gt, est, json, config_file;
@@ -117,6 +137,7 @@ struct TablesArguments {
   std::vector<std::string> only;
   long long seed = 1;
   int threads = 0;
+  std::vector<std::string> overrides;  // --set: scene.texture
 };
 // Runs the table drivers (benchmarks/tables) and writes <out>/<noise>/<name>/<name>.{md,csv,json}.
 void run_tables(const TablesArguments& arguments);

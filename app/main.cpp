@@ -34,7 +34,8 @@ void add_sim_options(CLI::App* cmd, SimArguments& a, bool with_scene) {
         ->capture_default_str();
   }
   cmd->add_option("--config", a.config_file, "YAML/JSON config file (keys: see README)");
-  cmd->add_option("--set", a.overrides, "override a config key, e.g. --set noise.preset=kinect (repeatable)");
+  cmd->add_option("--set", a.overrides,
+                  "override a config key, e.g. --set noise.preset=kinect or --set scene.texture=rich (repeatable)");
   cmd->add_option("--resolution", a.resolution, "image size WIDTHxHEIGHT, e.g. 640x480");
   cmd->add_option("--frames", a.frames, "frames per camera after --every (0 = the whole turn)");
   cmd->add_option("--seed", a.seed, "random seed");
@@ -64,13 +65,26 @@ int main(int argc, char** argv) {
   app.add_flag("-q,--quiet", quiet, "warnings and errors only");
 
   // scene list | export
-  CLI::App* scene_cmd = app.add_subcommand("scene", "built-in scenes: list them or export them as files");
+  CLI::App* scene_cmd = app.add_subcommand("scene", "scenes: list or export the built-in ones, generate seeded rooms");
   scene_cmd->require_subcommand(1);
   CLI::App* scene_list = scene_cmd->add_subcommand("list", "list built-in scenes and their scanning positions");
   CLI::App* scene_export = scene_cmd->add_subcommand("export", "write a scene as OBJ+MTL+PNG, ground-truth PLY, positions");
-  std::string export_scene_name, export_out;
-  scene_export->add_option("--scene", export_scene_name, "built-in scene name or a mesh file")->required();
-  scene_export->add_option("--out", export_out, "output directory")->required();
+  SceneExportArguments export_args;
+  scene_export->add_option("--scene", export_args.scene, "built-in scene name or a mesh file")->required();
+  scene_export->add_option("--out", export_args.out, "output directory")->required();
+  scene_export->add_option("--config", export_args.config_file, "YAML/JSON config file (key: scene.texture)");
+  scene_export->add_option("--set", export_args.overrides,
+                           "built-in scenes' texture density: --set scene.texture=icl|rich|plain (default icl)");
+
+  SceneGenerateArguments generate_args;
+  CLI::App* scene_generate = scene_cmd->add_subcommand(
+      "generate", "generate a seeded room (rectangular or L-shaped, furnished, 2-6 scanning positions) and export it");
+  scene_generate->add_option("--kind", generate_args.kind, "office or living_room")->required();
+  scene_generate->add_option("--seed", generate_args.seed, "the room's seed (same seed, same files)")->required();
+  scene_generate->add_option("--texture", generate_args.texture, "texture density: icl (default), rich or plain");
+  scene_generate->add_option("--out", generate_args.out, "output directory")->required();
+  scene_generate->add_option("--config", generate_args.config_file, "YAML/JSON config file (key: scene.texture)");
+  scene_generate->add_option("--set", generate_args.overrides, "--set scene.texture=icl|rich|plain");
 
   // sim
   SimArguments sim_args;
@@ -97,6 +111,8 @@ int main(int argc, char** argv) {
   tables_cmd->add_option("--only", tables_args.only, "restrict to these scan or pair labels (repeatable)");
   tables_cmd->add_option("--seed", tables_args.seed, "simulation seed")->capture_default_str();
   tables_cmd->add_option("--threads", tables_args.threads, "worker threads (0 = all cores)");
+  tables_cmd->add_option("--set", tables_args.overrides,
+                         "the scanned rooms' texture density: --set scene.texture=icl|rich|plain (default icl)");
 
   // eval cloud | traj
   CLI::App* eval_cmd = app.add_subcommand("eval", "evaluate against ground truth: clouds against meshes, trajectories");
@@ -114,6 +130,15 @@ int main(int argc, char** argv) {
   eval_cloud->add_option("--config", cloud_args.config_file, "YAML/JSON config (keys: see README)");
   eval_cloud->add_option("--set", cloud_args.overrides, "override a config key (repeatable)");
   eval_cloud->add_option("--threads", cloud_args.threads, "worker threads (0 = all cores)");
+  EvalFlatArguments flat_args;
+  CLI::App* eval_flat = eval_cmd->add_subcommand(
+      "flat-pixels", "texture density: share of valid pixels in flat regions (grey-level std below a threshold)");
+  eval_flat->add_option("--panorama", flat_args.panorama, "a panorama folder (recon panorama); valid = has depth");
+  eval_flat->add_option("--image", flat_args.image, "an image file (PNG/JPEG); every pixel valid");
+  eval_flat->add_option("--window", flat_args.window, "window size (odd)")->capture_default_str();
+  eval_flat->add_option("--threshold", flat_args.threshold, "grey-level std threshold (0..255 scale)")
+      ->capture_default_str();
+  eval_flat->add_option("--json", flat_args.json, "write the figures as JSON");
   EvalTrajArguments traj_args;
   CLI::App* eval_traj = eval_cmd->add_subcommand("traj", "ATE and RPE of an estimated TUM trajectory");
   eval_traj->add_option("--gt", traj_args.gt, "ground-truth TUM trajectory")->required();
@@ -204,11 +229,15 @@ int main(int argc, char** argv) {
     if (*scene_list) {
       run_scene_list();
     } else if (*scene_export) {
-      run_scene_export(export_scene_name, export_out);
+      run_scene_export(export_args);
+    } else if (*scene_generate) {
+      run_scene_generate(generate_args);
     } else if (*sim_cmd) {
       run_sim(sim_args, {});
     } else if (*eval_cloud) {
       run_eval_cloud(cloud_args);
+    } else if (*eval_flat) {
+      run_eval_flat(flat_args);
     } else if (*eval_traj) {
       run_eval_traj(traj_args);
     } else if (*recon_track) {

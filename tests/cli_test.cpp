@@ -27,7 +27,7 @@ std::size_t count_entries(const fs::path& dir) {
 }  // namespace
 
 TEST(Cli, HelpOnEverySubcommand) {
-  for (const std::string sub : {"", "sim", "demo", "scene", "scene export"}) {
+  for (const std::string sub : {"", "sim", "demo", "scene", "scene export", "scene generate", "eval flat-pixels"}) {
     const RunResult r = run(sub + " --help");
     EXPECT_EQ(r.exit_code, 0) << sub;
     EXPECT_NE(r.output.find("Usage"), std::string::npos) << sub;
@@ -147,4 +147,73 @@ TEST(Cli, ReconTrackRefusesAnUntrustworthyTrajectoryNamingTheScanAndTheCheck) {
   EXPECT_EQ(wrong.exit_code, 2) << wrong.output;
   expect_failure_naming(wrong, {miscalibrated, "not trustworthy", "extrinsics:", "calibration"});
   EXPECT_FALSE(fs::exists(tmp / "wrong-track"));
+}
+
+// scene.texture: icl (default), rich, plain for the built-in scenes; an unknown value or the key on
+// a scene file fails naming the key; the densities export different materials.
+TEST(Cli, SceneTextureDensityOption) {
+  panoscan::testutil::TempDir tmp("cli-texture");
+  const std::string small = " --resolution 32x24 --every 300 --threads 1";
+  expect_failure_naming(run("sim --set scene.texture=fancy --out " + (tmp / "a").string() + small),
+                        {"scene.texture", "fancy", "icl, rich, plain"});
+  expect_failure_naming(run("scene export --scene office --set scene.texture=fancy --out " + (tmp / "b").string()),
+                        {"scene.texture", "fancy"});
+  expect_failure_naming(run("tables table6 --set scene.texture=fancy --out " + (tmp / "c").string()),
+                        {"scene.texture", "fancy"});
+  EXPECT_FALSE(fs::exists(tmp / "a"));
+  EXPECT_FALSE(fs::exists(tmp / "b"));
+
+  const RunResult plain = run("scene export --scene office --set scene.texture=plain --out " + (tmp / "plain").string());
+  ASSERT_EQ(plain.exit_code, 0) << plain.output;
+  EXPECT_EQ(count_entries(tmp / "plain" / "textures"), 0u);
+  const RunResult icl = run("scene export --scene office --out " + (tmp / "icl").string());
+  ASSERT_EQ(icl.exit_code, 0) << icl.output;
+  std::ifstream mtl(tmp / "icl" / "office.mtl");
+  const std::string materials((std::istreambuf_iterator<char>(mtl)), std::istreambuf_iterator<char>());
+  EXPECT_NE(materials.find("newmtl wall_paint_light_grey"), std::string::npos);
+  EXPECT_EQ(materials.find("brick_wall"), std::string::npos);
+
+  // A scene file keeps its own materials: the key is refused rather than ignored.
+  expect_failure_naming(run("sim --scene " + (tmp / "icl" / "office.obj").string() + " --set scene.texture=rich --out " +
+                            (tmp / "d").string() + small),
+                        {"office.obj", "scene.texture"});
+  const RunResult rich = run("sim --scene office --set scene.texture=rich --out " + (tmp / "e").string() + small);
+  EXPECT_EQ(rich.exit_code, 0) << rich.output;
+}
+
+TEST(Cli, EvalFlatPixels) {
+  panoscan::testutil::TempDir tmp("cli-flat");
+  expect_failure_naming(run("eval flat-pixels"), {"--panorama"});
+  expect_failure_naming(run("eval flat-pixels --image " + (tmp / "none.png").string()), {"none.png"});
+}
+
+// scene generate writes an ordinary scene folder that sim accepts, the same bytes for the same seed.
+TEST(Cli, SceneGenerateThenSim) {
+  panoscan::testutil::TempDir tmp("cli-generate");
+  expect_failure_naming(run("scene generate --kind kitchen --seed 1 --out " + (tmp / "k").string()), {"--kind", "kitchen"});
+  expect_failure_naming(run("scene generate --kind office --seed 1 --texture loud --out " + (tmp / "k").string()),
+                        {"scene.texture", "loud"});
+  EXPECT_FALSE(fs::exists(tmp / "k"));
+  for (const std::string kind : {"office", "living_room"}) {
+    const std::string dir = (tmp / kind).string();
+    const RunResult generated = run("scene generate --kind " + kind + " --seed 3 --out " + dir);
+    ASSERT_EQ(generated.exit_code, 0) << generated.output;
+    const std::string obj = dir + "/" + kind + "_seed3.obj";
+    EXPECT_TRUE(fs::exists(obj)) << generated.output;
+    EXPECT_TRUE(fs::exists(dir + "/" + kind + "_seed3_groundtruth.ply"));
+    EXPECT_TRUE(fs::exists(dir + "/" + kind + "_seed3.positions.json"));
+    const RunResult sim = run("sim --scene " + obj + " --position 1 --resolution 32x24 --every 300 --threads 1 --out " +
+                              (tmp / (kind + "-scan")).string());
+    EXPECT_EQ(sim.exit_code, 0) << sim.output;
+    EXPECT_TRUE(fs::exists(tmp / (kind + "-scan") / "rig.json"));
+  }
+  const RunResult again = run("scene generate --kind office --seed 3 --set scene.texture=icl --out " + (tmp / "again").string());
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  for (const std::string file : {"office_seed3.obj", "office_seed3.mtl", "office_seed3.positions.json"}) {
+    std::ifstream a(tmp / "office" / file, std::ios::binary), b(tmp / "again" / file, std::ios::binary);
+    const std::string bytes_a((std::istreambuf_iterator<char>(a)), std::istreambuf_iterator<char>());
+    const std::string bytes_b((std::istreambuf_iterator<char>(b)), std::istreambuf_iterator<char>());
+    EXPECT_FALSE(bytes_a.empty());
+    EXPECT_TRUE(bytes_a == bytes_b) << file;
+  }
 }

@@ -9,10 +9,12 @@
 
 namespace panoscan::test {
 
-inline tables::TablesOptions gate_options(const std::string& noise = "handa") {
+// `texture`: the built-in rooms' density (scene.texture); the default, icl, is the paper's set-up.
+inline tables::TablesOptions gate_options(const std::string& noise = "handa", const std::string& texture = "icl") {
   tables::TablesOptions options;
   options.size = "quick";
   options.noise = noise;
+  options.texture = texture;
   options.cache = std::filesystem::path(PANOSCAN_BINARY_DIR) / "tables-cache";
   options.threads = 2;
   options.seed = 1;

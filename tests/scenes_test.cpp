@@ -24,6 +24,7 @@
 #include "panoscan/core/geometry.h"
 #include "panoscan/core/image_io.h"
 #include "panoscan/core/mesh_io.h"
+#include "panoscan/eval/image_texture.h"
 #include "panoscan/sim/renderer.h"
 #include "panoscan/sim/scene_loader.h"
 #include "test_util.h"
@@ -38,12 +39,14 @@ using testutil::TempDir;
 constexpr double kPi = 3.14159265358979323846;
 
 // Generating a scene takes a fraction of a second; tests share one copy of each.
-const Scene& builtin(const std::string& name) {
-  static std::map<std::string, Scene> cache;
-  auto found = cache.find(name);
-  if (found == cache.end()) found = cache.emplace(name, scenes::make_builtin_scene(name)).first;
+const Scene& builtin(const std::string& name, scenes::TextureDensity density = scenes::TextureDensity::kIcl) {
+  static std::map<std::pair<std::string, scenes::TextureDensity>, Scene> cache;
+  const auto key = std::make_pair(name, density);
+  auto found = cache.find(key);
+  if (found == cache.end()) found = cache.emplace(key, scenes::make_builtin_scene(name, scenes::SceneStyle{density})).first;
   return found->second;
 }
+const Scene& rich(const std::string& name) { return builtin(name, scenes::TextureDensity::kRich); }
 
 void write_text(const fs::path& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary);
@@ -95,7 +98,7 @@ TEST(BuiltinScenes, Names) {
 class BuiltinSceneTest : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(BuiltinSceneTest, IsAValidTexturedSceneOfTheRightSize) {
-  const Scene& scene = builtin(GetParam());
+  const Scene& scene = rich(GetParam());
   EXPECT_EQ(scene.name, GetParam());
   EXPECT_NO_THROW(scene.check("<builtin:" + GetParam() + ">"));
   const std::size_t triangles = scene.mesh.num_triangles();
@@ -136,6 +139,109 @@ TEST_P(BuiltinSceneTest, IsDeterministic) {
   EXPECT_TRUE(again.mesh.corner_uvs == scene.mesh.corner_uvs);
   ASSERT_EQ(again.textures.size(), scene.textures.size());
   for (std::size_t i = 0; i < scene.textures.size(); ++i) EXPECT_TRUE(again.textures[i].rgb == scene.textures[i].rgb);
+  ASSERT_EQ(again.materials.size(), scene.materials.size());
+  for (std::size_t i = 0; i < scene.materials.size(); ++i) EXPECT_TRUE(again.materials[i].albedo == scene.materials[i].albedo);
+}
+
+// The texture density changes materials only: the geometry, texture coordinates, lights and
+// positions are those of the rich look.
+TEST_P(BuiltinSceneTest, TextureDensityChangesOnlyMaterials) {
+  const Scene& reference = rich(GetParam());
+  for (scenes::TextureDensity density : {scenes::TextureDensity::kIcl, scenes::TextureDensity::kPlain}) {
+    const Scene& scene = builtin(GetParam(), density);
+    EXPECT_TRUE(scene.mesh.vertices == reference.mesh.vertices);
+    EXPECT_TRUE(scene.mesh.triangles == reference.mesh.triangles);
+    // Texture coordinates are those of the rich look wherever a texture is still shown.
+    ASSERT_EQ(scene.mesh.corner_uvs.size(), reference.mesh.corner_uvs.size());
+    std::size_t differing = 0;
+    for (std::size_t t = 0; t < scene.mesh.triangles.size(); ++t)
+      if (scene.materials[std::size_t(scene.mesh.triangle_material[t])].texture >= 0)
+        for (int k = 0; k < 3; ++k) differing += scene.mesh.corner_uvs[3 * t + k] != reference.mesh.corner_uvs[3 * t + k];
+    EXPECT_EQ(differing, 0u);
+    EXPECT_EQ(scene.materials.size(), reference.materials.size());
+    ASSERT_EQ(scene.positions.size(), reference.positions.size());
+    EXPECT_EQ(scene.lights.size(), reference.lights.size());
+  }
+}
+
+// icl: walls, ceiling, trim and window reveals are uniform paint; the floor keeps a low-contrast
+// texture; the objects keep their textures. plain: no texture at all.
+TEST_P(BuiltinSceneTest, IclAndPlainDensities) {
+  const Scene& scene = builtin(GetParam(), scenes::TextureDensity::kIcl);
+  std::set<std::string> painted, textured;
+  for (const Material& material : scene.materials) (material.texture < 0 ? painted : textured).insert(material.name);
+  const std::set<std::string> expected_paint =
+      GetParam() == "living_room"
+          ? std::set<std::string>{"wall_paint_cream", "wall_paint_sage", "ceiling_paint", "trim_paint", "plaster"}
+          : std::set<std::string>{"wall_paint_light_grey", "wall_paint_blue_grey", "ceiling_paint_office", "trim_paint",
+                                  "plaster"};
+  EXPECT_EQ(painted, expected_paint);
+  EXPECT_GE(textured.size(), 15u);
+  for (const char* object : {"oak_wood", "book_spines", "poster", "screen"}) EXPECT_TRUE(textured.count(object)) << object;
+  // Paint colours differ between walls and are not pure white.
+  std::set<std::vector<float>> colours;
+  for (const Material& material : scene.materials)
+    if (material.texture < 0) {
+      colours.insert({material.albedo.x(), material.albedo.y(), material.albedo.z()});
+      EXPECT_LT(material.albedo.maxCoeff(), 0.9f) << material.name;
+    }
+  EXPECT_GE(colours.size(), 4u);
+  // The floor texture: grey-level spread at most a fifth of the rich floor's.
+  const std::string floor = GetParam() == "living_room" ? "parquet_floor" : "carpet_tiles";
+  auto grey_std = [](const Texture& t) {
+    double sum = 0, sum2 = 0;
+    const std::size_t n = std::size_t(t.width) * t.height;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double g = 0.299 * t.rgb[3 * i] + 0.587 * t.rgb[3 * i + 1] + 0.114 * t.rgb[3 * i + 2];
+      sum += g;
+      sum2 += g * g;
+    }
+    return std::sqrt(sum2 / n - (sum / n) * (sum / n));
+  };
+  auto texture_of = [&](const Scene& s, const std::string& name) -> const Texture* {
+    for (const Material& material : s.materials)
+      if (material.name == name && material.texture >= 0) return &s.textures[std::size_t(material.texture)];
+    return nullptr;
+  };
+  const Texture* icl_floor = texture_of(scene, floor);
+  const Texture* rich_floor = texture_of(rich(GetParam()), floor);
+  ASSERT_TRUE(icl_floor && rich_floor);
+  EXPECT_LE(grey_std(*icl_floor), 0.2 * grey_std(*rich_floor));
+  std::printf("[ density  ] %s: %zu painted and %zu textured materials; floor grey std %.1f (rich %.1f)\n",
+              GetParam().c_str(), painted.size(), textured.size(), grey_std(*icl_floor), grey_std(*rich_floor));
+
+  const Scene& plain = builtin(GetParam(), scenes::TextureDensity::kPlain);
+  EXPECT_TRUE(plain.textures.empty());
+  for (const Material& material : plain.materials) {
+    EXPECT_EQ(material.texture, -1) << material.name;
+    EXPECT_TRUE((material.albedo.array() > 0.f).all() && (material.albedo.array() <= 1.f).all()) << material.name;
+  }
+}
+
+// Share of flat pixels (grey-level std < 2 over 7x7) in a noiseless equirectangular panorama from
+// the first scanning position at the rig's camera height: at least a third at the default (icl)
+// density, as in ICL-NUIM's rooms; rich leaves far fewer, plain more.
+TEST_P(BuiltinSceneTest, FlatPixelShareOfAPanoramaByDensity) {
+  double share[3] = {0, 0, 0};
+  const scenes::TextureDensity densities[3] = {scenes::TextureDensity::kRich, scenes::TextureDensity::kIcl,
+                                               scenes::TextureDensity::kPlain};
+  for (int d = 0; d < 3; ++d) {
+    const Scene& scene = builtin(GetParam(), densities[d]);
+    const Renderer renderer(scene);
+    Equirectangular pano;
+    pano.height = 256;
+    const Rigid3d world_from_pano =
+        make_rigid(Eigen::Matrix3d::Identity(), scene.positions[0].floor_point + Eigen::Vector3d(0, 0, 1.1));
+    const RenderedView view = renderer.render_equirectangular(world_from_pano, pano);
+    ImageU8 valid(view.depth.width, view.depth.height, 1, 0);
+    for (std::size_t i = 0; i < valid.data.size(); ++i) valid.data[i] = view.depth.data[i] > 0.f;
+    share[d] = eval::flat_pixel_share(eval::grey_levels(view.rgb), valid, 7, 2.0).share;
+  }
+  std::printf("[ flat     ] %s %s: flat pixels rich %.1f%%, icl %.1f%%, plain %.1f%%\n", GetParam().c_str(),
+              builtin(GetParam()).positions[0].name.c_str(), 100 * share[0], 100 * share[1], 100 * share[2]);
+  EXPECT_GE(share[1], 1.0 / 3.0);
+  EXPECT_LT(share[0], 0.5 * share[1]);
+  EXPECT_GE(share[2], share[1]);
 }
 
 // The room is closed and every surface seen from inside faces the viewer (walls wound inwards,
@@ -268,11 +374,11 @@ TEST_P(BuiltinSceneTest, PositionsHaveClearanceAndAreCloseEnough) {
   }
 }
 
-// Texture richness as the tracker sees it: views of the three sensors (pitch +45, 0, -45 degrees,
+// Texture richness of the rich density as the tracker sees it: views of the three sensors (pitch +45, 0, -45 degrees,
 // 1.1 m above the floor, fx = 570 at 640x480) all round each position, rendered by the simulator's
 // renderer, average at least 300 ORB keypoints with OpenCV's defaults.
 TEST_P(BuiltinSceneTest, RenderedViewsHaveEnoughOrbKeypoints) {
-  const Scene& scene = builtin(GetParam());
+  const Scene& scene = rich(GetParam());
   const Renderer renderer(scene);
   const PinholeIntrinsics intrinsics;
   for (const ScanPosition& position : scene.positions) {
@@ -302,9 +408,10 @@ TEST_P(BuiltinSceneTest, RenderedViewsHaveEnoughOrbKeypoints) {
   }
 }
 
-// Each texture on its own (tiled to 640x480 if smaller) carries plenty of ORB corners.
+// Each texture of the rich density on its own (tiled to 640x480 if smaller) carries plenty of ORB
+// corners.
 TEST_P(BuiltinSceneTest, TexturesAreRichInOrbKeypoints) {
-  const Scene& scene = builtin(GetParam());
+  const Scene& scene = rich(GetParam());
   std::string summary;
   for (const Texture& texture : scene.textures) {
     const cv::Mat image(texture.height, texture.width, CV_8UC3, const_cast<std::uint8_t*>(texture.rgb.data()));
@@ -404,7 +511,8 @@ TEST_P(ExportTest, ExportThenLoadGivesTheSameScene) {
   for (std::size_t m = 0; m < scene.materials.size(); ++m) {
     EXPECT_EQ(loaded.materials[m].name, scene.materials[m].name);
     EXPECT_TRUE(loaded.materials[m].albedo.isApprox(scene.materials[m].albedo, 1e-6f));
-    ASSERT_GE(loaded.materials[m].texture, 0);
+    ASSERT_EQ(loaded.materials[m].texture >= 0, scene.materials[m].texture >= 0) << scene.materials[m].name;
+    if (scene.materials[m].texture < 0) continue;
     const Texture& original = scene.textures[static_cast<std::size_t>(scene.materials[m].texture)];
     const Texture& reloaded = loaded.textures[static_cast<std::size_t>(loaded.materials[m].texture)];
     EXPECT_EQ(reloaded.name, original.name);
@@ -570,6 +678,159 @@ TEST(LoadScene, ReadsGltfWithEmbeddedTexture) {
   EXPECT_TRUE(scene.textures[0].rgb == image.data);
   ASSERT_EQ(scene.materials.size(), 1u);
   EXPECT_EQ(scene.materials[0].texture, 0);
+}
+
+// A 4 m x 4 m x 2.5 m room coloured only per vertex (no material, no texture), as scanned rooms in
+// public datasets come: each face its own four vertices; the floor green, the ceiling grey, the
+// north wall (y = 4) red at its west end grading to blue at its east end, the other walls yellow.
+// ASCII PLY with uchar red/green/blue.
+void write_vertex_coloured_room(const fs::path& path) {
+  struct Face {
+    Eigen::Vector3f corners[4];
+    Eigen::Vector3i colours[4];
+  };
+  const float w = 4.f, h = 2.5f;
+  const Eigen::Vector3i green(40, 200, 40), grey(180, 180, 180), red(230, 20, 20), blue(20, 20, 230),
+      yellow(220, 200, 40);
+  // Corners counter-clockwise seen from inside the room.
+  const std::vector<Face> faces = {
+      {{{0, 0, 0}, {w, 0, 0}, {w, w, 0}, {0, w, 0}}, {green, green, green, green}},
+      {{{0, 0, h}, {0, w, h}, {w, w, h}, {w, 0, h}}, {grey, grey, grey, grey}},
+      {{{0, w, 0}, {w, w, 0}, {w, w, h}, {0, w, h}}, {red, blue, blue, red}},
+      {{{w, 0, 0}, {0, 0, 0}, {0, 0, h}, {w, 0, h}}, {yellow, yellow, yellow, yellow}},
+      {{{0, 0, 0}, {0, w, 0}, {0, w, h}, {0, 0, h}}, {yellow, yellow, yellow, yellow}},
+      {{{w, w, 0}, {w, 0, 0}, {w, 0, h}, {w, w, h}}, {yellow, yellow, yellow, yellow}},
+  };
+  std::string ply = "ply\nformat ascii 1.0\nelement vertex 24\nproperty float x\nproperty float y\nproperty float z\n"
+                    "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 6\n"
+                    "property list uchar int vertex_indices\nend_header\n";
+  for (const Face& face : faces)
+    for (int k = 0; k < 4; ++k)
+      ply += std::to_string(face.corners[k].x()) + " " + std::to_string(face.corners[k].y()) + " " +
+             std::to_string(face.corners[k].z()) + " " + std::to_string(face.colours[k].x()) + " " +
+             std::to_string(face.colours[k].y()) + " " + std::to_string(face.colours[k].z()) + "\n";
+  for (int f = 0; f < 6; ++f)
+    ply += "4 " + std::to_string(4 * f) + " " + std::to_string(4 * f + 1) + " " + std::to_string(4 * f + 2) + " " +
+           std::to_string(4 * f + 3) + "\n";
+  write_text(path, ply);
+}
+
+TEST(LoadScene, PerVertexColourIsRenderedInterpolated) {
+  TempDir dir("vertex-colour");
+  write_vertex_coloured_room(dir / "room.ply");
+  write_text(dir / "room.positions.json", R"({"format": "panoscan-positions", "version": 1,
+    "positions": [{"name": "R-1", "floor_point": [2.0, 1.0, 0.0]}],
+    "lights": [{"position": [2.0, 2.0, 2.3], "intensity": 1.0}]})");
+  const Scene scene = load_scene_file(dir / "room.ply");
+  ASSERT_EQ(scene.mesh.vertex_colours.size(), scene.mesh.vertices.size());
+  // Corners shared by differently coloured faces keep each face's colour.
+  std::set<std::vector<float>> floor_colours;
+  for (std::size_t i = 0; i < scene.mesh.vertices.size(); ++i)
+    if (scene.mesh.vertices[i].z() == 0.f) {
+      const Eigen::Vector3f c = 255.f * scene.mesh.vertex_colours[i];
+      floor_colours.insert({std::round(c.x()), std::round(c.y()), std::round(c.z())});
+    }
+  EXPECT_EQ(floor_colours, (std::set<std::vector<float>>{{40, 200, 40}, {230, 20, 20}, {20, 20, 230}, {220, 200, 40}}));
+  // The same colours through our own PLY reader.
+  const TriangleMesh own = read_ply_mesh(dir / "room.ply");
+  ASSERT_EQ(own.vertex_colours.size(), 24u);
+  EXPECT_TRUE(own.vertex_colours[8].isApprox(Eigen::Vector3f(230, 20, 20) / 255.f, 1e-6f));
+
+  // Looking north at the wall 3 m away: red on the left, blue on the right, purple between, the
+  // floor green below; never the default grey. Colour ratios do not depend on the shading.
+  const Renderer renderer(scene);
+  PinholeIntrinsics k;
+  k.width = 160;
+  k.height = 120;
+  k.fx = k.fy = 80;
+  k.cx = 79.5;
+  k.cy = 59.5;
+  const RenderedView view = renderer.render(camera_pose(Eigen::Vector3d(2.0, 1.0, 1.2), kPi / 2, 0.0), k);
+  auto rgb = [&](int x, int y) {
+    return Eigen::Vector3f(view.rgb.at(x, y, 0), view.rgb.at(x, y, 1), view.rgb.at(x, y, 2));
+  };
+  // The wall spans x in [0, 4] at y = 4: 3 m ahead, 2 m either side, so columns 27..133.
+  const Eigen::Vector3f left = rgb(35, 60), middle = rgb(80, 60), right = rgb(125, 60), floor = rgb(80, 115);
+  EXPECT_GT(left.x(), 3.f * left.z()) << left.transpose();
+  EXPECT_GT(right.z(), 3.f * right.x()) << right.transpose();
+  EXPECT_NEAR(middle.x() / middle.z(), 1.f, 0.15f) << middle.transpose();
+  EXPECT_LT(middle.y(), 0.3f * middle.x()) << middle.transpose();
+  EXPECT_GT(floor.y(), 3.f * floor.x()) << floor.transpose();
+  // Interpolated: red falls and blue rises monotonically across the wall.
+  float previous_red = 1e9f, previous_blue = -1.f;
+  for (int x = 30; x <= 130; x += 10) {
+    const Eigen::Vector3f c = rgb(x, 60);
+    EXPECT_LE(c.x() / (c.x() + c.z()), previous_red + 1e-3f);
+    EXPECT_GE(c.z() / (c.x() + c.z()), previous_blue - 1e-3f);
+    previous_red = c.x() / (c.x() + c.z());
+    previous_blue = c.z() / (c.x() + c.z());
+  }
+
+  // Export writes the colours (OBJ "v x y z r g b", the ground-truth PLY) and they load back.
+  scenes::export_scene(scene, dir / "export");
+  const Scene reloaded = load_scene_file(dir / "export" / "room.obj");
+  ASSERT_EQ(reloaded.mesh.vertex_colours.size(), reloaded.mesh.vertices.size());
+  EXPECT_EQ(unmatched_triangles(scene, reloaded, 1e-5f, 1e-4f), 0);
+  for (std::size_t i = 0; i < reloaded.mesh.vertices.size(); ++i) {
+    // Find the same position in the original and compare colours (positions on the north wall are
+    // shared by faces of other colours: compare only the wall's interior-free corners by face).
+    const Eigen::Vector3f& p = reloaded.mesh.vertices[i];
+    bool matched = false;
+    for (std::size_t j = 0; j < scene.mesh.vertices.size() && !matched; ++j)
+      matched = (scene.mesh.vertices[j] - p).norm() < 1e-5f &&
+                (scene.mesh.vertex_colours[j] - reloaded.mesh.vertex_colours[i]).norm() < 1e-5f;
+    EXPECT_TRUE(matched) << "vertex " << i << " at " << p.transpose();
+  }
+  const TriangleMesh ground_truth = read_ply_mesh(dir / "export" / "room_groundtruth.ply");
+  ASSERT_EQ(ground_truth.vertex_colours.size(), ground_truth.vertices.size());
+  for (std::size_t i = 0; i < ground_truth.vertices.size(); ++i)
+    EXPECT_LT((ground_truth.vertex_colours[i] - scene.mesh.vertex_colours[i]).cwiseAbs().maxCoeff(), 0.5f / 255.f + 1e-6f);
+}
+
+// glTF's COLOR_0 is read as per-vertex colour too.
+TEST(LoadScene, ReadsGltfVertexColours) {
+  TempDir dir("load-scene");
+  std::string buffer;
+  const float positions[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  const float colours[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  const std::uint16_t indices[4] = {0, 1, 2, 0};
+  buffer.append(reinterpret_cast<const char*>(positions), sizeof(positions));
+  buffer.append(reinterpret_cast<const char*>(colours), sizeof(colours));
+  buffer.append(reinterpret_cast<const char*>(indices), sizeof(indices));
+  write_text(dir / "tri.bin", buffer);
+  write_text(dir / "tri.gltf", R"({
+    "asset": {"version": "2.0"},
+    "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "COLOR_0": 1}, "indices": 2}]}],
+    "buffers": [{"uri": "tri.bin", "byteLength": 80}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 36},
+                    {"buffer": 0, "byteOffset": 72, "byteLength": 6}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+                  {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"},
+                  {"bufferView": 2, "componentType": 5123, "count": 3, "type": "SCALAR"}]})");
+  write_text(dir / "positions.json", kPositionsJson);
+  const Scene scene = load_scene_file(dir / "tri.gltf");
+  ASSERT_EQ(scene.mesh.num_triangles(), 1u);
+  ASSERT_EQ(scene.mesh.vertex_colours.size(), scene.mesh.vertices.size());
+  for (std::size_t i = 0; i < scene.mesh.vertices.size(); ++i) {
+    const Eigen::Vector3f& p = scene.mesh.vertices[i];
+    const Eigen::Vector3f expected = p.x() > 0.5f ? Eigen::Vector3f(0, 1, 0)
+                                     : p.y() > 0.5f ? Eigen::Vector3f(0, 0, 1)
+                                                    : Eigen::Vector3f(1, 0, 0);
+    EXPECT_TRUE(scene.mesh.vertex_colours[i].isApprox(expected, 1e-6f)) << p.transpose();
+  }
+}
+
+TEST(LoadScene, VertexColoursAreValidated) {
+  Scene scene;
+  scene.mesh.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  scene.mesh.triangles = {{0, 1, 2}};
+  scene.mesh.vertex_colours = {{1, 0, 0}, {0, 1, 0}};
+  expect_error([&] { scene.check("three"); }, {"three", "vertex colours", "one per vertex"});
+  scene.mesh.vertex_colours.push_back({0, 0, 2});
+  expect_error([&] { scene.check("three"); }, {"vertex colour 2", "[0, 1]"});
+  scene.mesh.vertex_colours.back() = {0, 0, 1};
+  EXPECT_NO_THROW(scene.check("three"));
 }
 
 TEST(LoadScene, MissingFile) {

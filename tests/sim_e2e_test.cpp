@@ -78,7 +78,10 @@ TEST(SimEndToEnd, BuiltinScenesGiveEnoughOrbFeaturesFromTheScanningPositions) {
   // The default detector keeps at most 500 features; an uncapped one shows the texture's margin.
   cv::Ptr<cv::ORB> uncapped = cv::ORB::create(100000);
   for (const std::string& name : scenes::builtin_scene_names()) {
-    const Scene scene = scenes::make_builtin_scene(name);
+    // Interim pin (issue 15): the 300-keypoint floor was set on the rich texture density; the default
+    // ICL-NUIM density (plain walls) measures a mean of 289. Kept at rich until the tracking work of
+    // issue 15 item 4 settles what the front end needs at the ICL density.
+    const Scene scene = scenes::make_builtin_scene(name, scenes::SceneStyle{scenes::TextureDensity::kRich});
     SimOptions options;
     options.noise.preset = NoisePreset::kNone;
     double total = 0, total_uncapped = 0;

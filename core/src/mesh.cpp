@@ -21,6 +21,16 @@ void Scene::check(const std::string& origin) const {
                          "vertex index " + std::to_string(index) + " out of range (" + std::to_string(num_vertices) +
                              " vertices)");
     }
+  if (!mesh.vertex_colours.empty()) {
+    if (mesh.vertex_colours.size() != num_vertices)
+      throw make_error(origin, "vertex colours", "expected one per vertex (" + std::to_string(num_vertices) +
+                                                     "), got " + std::to_string(mesh.vertex_colours.size()));
+    for (std::size_t i = 0; i < num_vertices; ++i) {
+      const Eigen::Vector3f& c = mesh.vertex_colours[i];
+      if (!c.allFinite() || c.minCoeff() < 0.f || c.maxCoeff() > 1.f)
+        throw make_error(origin, "vertex colour " + std::to_string(i), "expected components in [0, 1]");
+    }
+  }
   if (!mesh.corner_uvs.empty() && mesh.corner_uvs.size() != 3 * num_triangles)
     throw make_error(origin, "texture coordinates", "expected 3 per triangle");
   for (std::size_t i = 0; i < mesh.corner_uvs.size(); ++i)

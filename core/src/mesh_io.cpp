@@ -100,6 +100,19 @@ std::size_t type_size(PlyType type) {
 
 bool is_integer_type(PlyType type) { return type != PlyType::kFloat32 && type != PlyType::kFloat64; }
 
+// A colour channel of this type maps [0, colour_scale] to [0, 1].
+double colour_scale(PlyType type) {
+  switch (type) {
+    case PlyType::kInt8: return 127.0;
+    case PlyType::kUInt8: return 255.0;
+    case PlyType::kInt16: return 32767.0;
+    case PlyType::kUInt16: return 65535.0;
+    case PlyType::kInt32: return 2147483647.0;
+    case PlyType::kUInt32: return 4294967295.0;
+    default: return 1.0;
+  }
+}
+
 // ------------------------------------------------------------------------------------------------
 // Data readers: one value at a time, as double (exact for every PLY type).
 
@@ -244,16 +257,27 @@ void write_ply_mesh(const fs::path& path, const TriangleMesh& mesh) {
         throw make_error(file, "face " + std::to_string(t), "vertex index " + std::to_string(index) + " out of range");
     }
 
+  const bool coloured = !mesh.vertex_colours.empty();
+  if (coloured && mesh.vertex_colours.size() != num_vertices)
+    throw make_error(file, "vertex colours", "expected one per vertex");
   std::string bytes = "ply\nformat binary_little_endian 1.0\ncomment PanoScan mesh (metres)\n";
   bytes += "element vertex " + std::to_string(num_vertices) + "\n";
   bytes += "property float x\nproperty float y\nproperty float z\n";
+  if (coloured) bytes += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   bytes += "element face " + std::to_string(mesh.triangles.size()) + "\n";
   bytes += "property list uchar int vertex_indices\nend_header\n";
-  bytes.reserve(bytes.size() + num_vertices * 12 + mesh.triangles.size() * 13);
-  for (const Eigen::Vector3f& v : mesh.vertices) {
+  bytes.reserve(bytes.size() + num_vertices * (coloured ? 15 : 12) + mesh.triangles.size() * 13);
+  for (std::size_t i = 0; i < num_vertices; ++i) {
+    const Eigen::Vector3f& v = mesh.vertices[i];
     append_little_endian(bytes, v.x());
     append_little_endian(bytes, v.y());
     append_little_endian(bytes, v.z());
+    if (coloured)
+      for (int c = 0; c < 3; ++c) {
+        const float value = mesh.vertex_colours[i][c];
+        if (!std::isfinite(value)) throw make_error(file, "vertex colour " + std::to_string(i), "not finite");
+        append_little_endian(bytes, static_cast<std::uint8_t>(std::lround(std::clamp(value, 0.f, 1.f) * 255.f)));
+      }
   }
   for (const Eigen::Vector3i& triangle : mesh.triangles) {
     append_little_endian(bytes, std::uint8_t{3});
@@ -355,6 +379,15 @@ TriangleMesh read_ply_mesh(const fs::path& path) {
   for (int axis = 0; axis < 3; ++axis)
     if (coordinate_property[axis] < 0)
       throw make_error(file, "element vertex", std::string("missing property '") + kAxes[axis] + "'");
+  // Optional per-vertex colour: red, green, blue (integers scaled by their type's maximum,
+  // floats taken as they are, both clamped to [0, 1]).
+  int colour_property[3] = {-1, -1, -1};
+  const char* kChannels[3] = {"red", "green", "blue"};
+  for (std::size_t p = 0; p < vertex_element->properties.size(); ++p)
+    for (int c = 0; c < 3; ++c)
+      if (vertex_element->properties[p].name == kChannels[c] && !vertex_element->properties[p].is_list)
+        colour_property[c] = static_cast<int>(p);
+  const bool coloured = colour_property[0] >= 0 && colour_property[1] >= 0 && colour_property[2] >= 0;
   if (!face_element) throw make_error(file, "element face", "missing: a mesh needs triangles");
   int index_property = -1;
   for (std::size_t p = 0; p < face_element->properties.size(); ++p) {
@@ -388,9 +421,22 @@ TriangleMesh read_ply_mesh(const fs::path& path) {
     for (std::uint64_t item = 0; item < element.count; ++item) {
       const std::string what = element.name + " " + std::to_string(item);
       Eigen::Vector3d position = Eigen::Vector3d::Zero();
+      Eigen::Vector3f colour = Eigen::Vector3f::Zero();
       for (std::size_t p = 0; p < element.properties.size(); ++p) {
         const PlyProperty& property = element.properties[p];
         if (!property.is_list) {
+          const int channel = !is_vertex || !coloured                    ? -1
+                              : static_cast<int>(p) == colour_property[0] ? 0
+                              : static_cast<int>(p) == colour_property[1] ? 1
+                              : static_cast<int>(p) == colour_property[2] ? 2
+                                                                          : -1;
+          if (channel >= 0) {
+            const double value = reader->read(property.type, what + " property " + property.name);
+            if (!std::isfinite(value))
+              throw make_error(file, what, "property " + property.name + " is not finite (NaN or inf)");
+            colour[channel] = static_cast<float>(std::clamp(value / colour_scale(property.type), 0.0, 1.0));
+            continue;
+          }
           if (is_vertex &&
               (static_cast<int>(p) == coordinate_property[0] || static_cast<int>(p) == coordinate_property[1] ||
                static_cast<int>(p) == coordinate_property[2])) {
@@ -424,6 +470,7 @@ TriangleMesh read_ply_mesh(const fs::path& path) {
         }
       }
       if (is_vertex) mesh.vertices.push_back(position.cast<float>());
+      if (is_vertex && coloured) mesh.vertex_colours.push_back(colour);
       if (is_vertex && !mesh.vertices.back().allFinite()) throw make_error(file, what, "coordinate out of float range");
     }
   }

@@ -8,6 +8,7 @@
 
 #include "furniture.h"
 #include "materials.h"
+#include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/random.h"
 #include "panoscan/scenes/scenes.h"
@@ -63,10 +64,10 @@ PointLight light(float x, float y, float z, float intensity) {
 // Living room (paper: SL): 5.6 m x 4.6 m, 2.7 m high. Sofa, coffee table and rug on the south side,
 // TV and chest of drawers on the north wall beside the door, bookshelf and armchair on the west,
 // window with curtains and radiator and a writing desk on the east.
-Scene make_living_room() {
+Scene make_living_room(const SceneStyle& style) {
   const float width = 5.6f, depth = 4.6f, height = 2.7f;
   SceneBuilder b("living_room");
-  MaterialLibrary m(b, kLivingRoomSeed);
+  MaterialLibrary m(b, kLivingRoomSeed, style.texture);
   RandomStream rng(kLivingRoomSeed, 0, 0, RandomPurpose::kScene, 1);
   const RoomWalls walls = room_walls(width, depth);
   const WallOpening door{0.45f, 1.35f, 0.f, 2.05f};    // north wall, s = x
@@ -195,10 +196,10 @@ Scene make_living_room() {
 // Office (paper: SO): 6.6 m x 5.6 m, 2.8 m high. Two desks under the south windows, two on the north
 // wall either side of a whiteboard, bookshelves on the west, door with filing cabinets and a coat
 // stand on the east, a round table in the middle.
-Scene make_office() {
+Scene make_office(const SceneStyle& style) {
   const float width = 6.6f, depth = 5.6f, height = 2.8f;
   SceneBuilder b("office");
-  MaterialLibrary m(b, kOfficeSeed);
+  MaterialLibrary m(b, kOfficeSeed, style.texture);
   RandomStream rng(kOfficeSeed, 0, 0, RandomPurpose::kScene, 1);
   const RoomWalls walls = room_walls(width, depth);
   const WallOpening window_east_half{1.0f, 2.4f, 0.95f, 2.25f};  // south wall, s = width - x
@@ -357,9 +358,33 @@ bool is_builtin_scene(const std::string& name) {
   return false;
 }
 
-Scene make_builtin_scene(const std::string& name) {
-  if (name == "living_room") return make_living_room();
-  if (name == "office") return make_office();
+std::vector<std::string> texture_density_names() { return {"icl", "rich", "plain"}; }
+
+std::string to_string(TextureDensity density) {
+  switch (density) {
+    case TextureDensity::kIcl: return "icl";
+    case TextureDensity::kRich: return "rich";
+    case TextureDensity::kPlain: return "plain";
+  }
+  return "icl";
+}
+
+TextureDensity texture_density_from_string(const std::string& value, const std::string& field) {
+  if (value == "icl") return TextureDensity::kIcl;
+  if (value == "rich") return TextureDensity::kRich;
+  if (value == "plain") return TextureDensity::kPlain;
+  throw make_error("", field, "unknown texture density '" + value + "' (known: icl, rich, plain)");
+}
+
+SceneStyle scene_style_from_config(Config& config) {
+  SceneStyle style;
+  style.texture = texture_density_from_string(config.get_string("scene.texture", "icl", texture_density_names()));
+  return style;
+}
+
+Scene make_builtin_scene(const std::string& name, const SceneStyle& style) {
+  if (name == "living_room") return make_living_room(style);
+  if (name == "office") return make_office(style);
   std::string known;
   for (const std::string& n : builtin_scene_names()) known += (known.empty() ? "" : ", ") + n;
   throw make_error("", "scene", "unknown built-in scene '" + name + "' (known: " + known + ")");

@@ -121,7 +121,16 @@ void export_scene(const Scene& scene, const fs::path& out_dir) {
   std::string obj = fmt::format("# PanoScan scene '{}': {} vertices, {} triangles; metres, z up\n", scene.name,
                                 mesh.vertices.size(), mesh.triangles.size());
   obj += fmt::format("mtllib {}.mtl\no {}\n", stem, stem);
-  for (const Eigen::Vector3f& v : mesh.vertices) obj += fmt::format("v {} {} {}\n", v.x(), v.y(), v.z());
+  // Per-vertex colours as the common "v x y z r g b" extension (assimp, MeshLab and Blender read it).
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const Eigen::Vector3f& v = mesh.vertices[i];
+    if (mesh.vertex_colours.empty()) {
+      obj += fmt::format("v {} {} {}\n", v.x(), v.y(), v.z());
+    } else {
+      const Eigen::Vector3f& c = mesh.vertex_colours[i];
+      obj += fmt::format("v {} {} {} {} {} {}\n", v.x(), v.y(), v.z(), c.x(), c.y(), c.z());
+    }
+  }
   const bool has_uvs = !mesh.corner_uvs.empty();
   std::vector<int> corner_uv_index(mesh.corner_uvs.size());
   if (has_uvs) {

@@ -1,5 +1,7 @@
 #include "materials.h"
 
+#include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "panoscan/core/random.h"
@@ -101,18 +103,89 @@ MaterialRecipe recipe(MaterialKind kind, int variant, std::uint64_t seed) {
   return {"unknown", Texture{}, 1.f};
 }
 
+// Plain paint of a room-shell kind at the icl and plain densities: plausible emulsion colours, a
+// different one per wall kind, all below 0.87 so that the brightest lit spot (shading up to 1.13)
+// does not clip.
+struct Paint {
+  const char* name;
+  Eigen::Vector3f albedo;
+};
+Paint paint(MaterialKind kind) {
+  switch (kind) {
+    case MaterialKind::kDamaskWallpaper: return {"wall_paint_cream", {0.82f, 0.77f, 0.66f}};
+    case MaterialKind::kStripedWallpaper: return {"wall_paint_sage", {0.68f, 0.74f, 0.64f}};
+    case MaterialKind::kGeometricWallpaper: return {"wall_paint_blue_grey", {0.66f, 0.72f, 0.78f}};
+    case MaterialKind::kBrickWall: return {"wall_paint_light_grey", {0.80f, 0.80f, 0.77f}};
+    case MaterialKind::kCofferedCeiling: return {"ceiling_paint", {0.86f, 0.85f, 0.82f}};
+    case MaterialKind::kAcousticCeiling: return {"ceiling_paint_office", {0.84f, 0.84f, 0.83f}};
+    case MaterialKind::kTrimPaint: return {"trim_paint", {0.86f, 0.85f, 0.81f}};
+    case MaterialKind::kPlaster: return {"plaster", {0.80f, 0.76f, 0.65f}};
+    default: return {"paint", {0.8f, 0.8f, 0.8f}};
+  }
+}
+
+Eigen::Vector3d mean_colour(const Texture& texture) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  const std::size_t texels = static_cast<std::size_t>(texture.width) * texture.height;
+  for (std::size_t i = 0; i < texels; ++i)
+    for (int c = 0; c < 3; ++c) sum[c] += texture.rgb[3 * i + c];
+  return sum / (255.0 * static_cast<double>(std::max<std::size_t>(1, texels)));
+}
+
+// The texture with its contrast about its mean colour scaled by `contrast`.
+void reduce_contrast(Texture& texture, float contrast) {
+  const Eigen::Vector3d mean = 255.0 * mean_colour(texture);
+  for (std::size_t i = 0; i < texture.rgb.size(); ++i) {
+    const double m = mean[static_cast<int>(i % 3)];
+    const double value = m + contrast * (texture.rgb[i] - m);
+    texture.rgb[i] = static_cast<std::uint8_t>(std::clamp(std::lround(value), 0l, 255l));
+  }
+}
+
 }  // namespace
+
+bool is_floor(MaterialKind kind) { return kind == MaterialKind::kParquetFloor || kind == MaterialKind::kCarpetTiles; }
+
+bool is_room_shell(MaterialKind kind) {
+  switch (kind) {
+    case MaterialKind::kDamaskWallpaper:
+    case MaterialKind::kStripedWallpaper:
+    case MaterialKind::kGeometricWallpaper:
+    case MaterialKind::kBrickWall:
+    case MaterialKind::kParquetFloor:
+    case MaterialKind::kCarpetTiles:
+    case MaterialKind::kCofferedCeiling:
+    case MaterialKind::kAcousticCeiling:
+    case MaterialKind::kTrimPaint:
+    case MaterialKind::kPlaster:
+      return true;
+    default:
+      return false;
+  }
+}
 
 int MaterialLibrary::operator()(MaterialKind kind, int variant) {
   const auto key = std::make_pair(kind, variant);
   auto found = created_.find(key);
   if (found != created_.end()) return found->second;
-  // Each texture's seed depends only on the scene, the kind and the variant, not on creation order.
-  const std::uint64_t seed =
-      mix64(scene_seed_ * 1000003ull + static_cast<std::uint64_t>(kind) * 131ull + static_cast<std::uint64_t>(variant));
-  MaterialRecipe made = recipe(kind, variant, seed);
-  const int texture = builder_.add_texture(std::move(made.texture));
-  const int material = builder_.add_material(made.name, texture, made.tile_size_m);
+  int material = -1;
+  if (density_ != TextureDensity::kRich && is_room_shell(kind) && !is_floor(kind)) {
+    // Painted: no texture is generated at all.
+    const Paint p = paint(kind);
+    material = builder_.add_material(p.name, -1, 1.f, p.albedo);
+  } else {
+    // Each texture's seed depends only on the scene, the kind and the variant, not on creation order.
+    const std::uint64_t seed = mix64(scene_seed_ * 1000003ull + static_cast<std::uint64_t>(kind) * 131ull +
+                                     static_cast<std::uint64_t>(variant));
+    MaterialRecipe made = recipe(kind, variant, seed);
+    if (density_ == TextureDensity::kPlain) {
+      material = builder_.add_material(made.name, -1, made.tile_size_m, mean_colour(made.texture).cast<float>());
+    } else {
+      if (density_ == TextureDensity::kIcl && is_floor(kind)) reduce_contrast(made.texture, kFloorContrastIcl);
+      const int texture = builder_.add_texture(std::move(made.texture));
+      material = builder_.add_material(made.name, texture, made.tile_size_m);
+    }
+  }
   created_.emplace(key, material);
   return material;
 }

@@ -371,6 +371,26 @@ struct PositionKeyHash {
 
 }  // namespace
 
+bool SceneBuilder::bounds_since(std::size_t first_triangle, Vec3* lo, Vec3* hi) const {
+  if (first_triangle >= mesh_.triangles.size()) return false;
+  // Before finish() every triangle has its own three vertices, in order.
+  *lo = Vec3::Constant(1e30f);
+  *hi = Vec3::Constant(-1e30f);
+  for (std::size_t v = 3 * first_triangle; v < mesh_.vertices.size(); ++v) {
+    *lo = lo->cwiseMin(mesh_.vertices[v]);
+    *hi = hi->cwiseMax(mesh_.vertices[v]);
+  }
+  return true;
+}
+
+void SceneBuilder::truncate(std::size_t first_triangle) {
+  if (first_triangle >= mesh_.triangles.size()) return;
+  mesh_.triangles.resize(first_triangle);
+  mesh_.vertices.resize(3 * first_triangle);
+  mesh_.corner_uvs.resize(3 * first_triangle);
+  mesh_.triangle_material.resize(first_triangle);
+}
+
 Scene SceneBuilder::finish(std::vector<PointLight> lights, std::vector<ScanPosition> positions) {
   // Faces were emitted with their own corners; share coincident vertices so the mesh is connected
   // where surfaces meet (texture coordinates stay per corner, so nothing is lost).

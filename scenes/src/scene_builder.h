@@ -113,6 +113,10 @@ class SceneBuilder {
                 int material);
 
   std::size_t num_triangles() const { return mesh_.triangles.size(); }
+  // Bounding box (scene frame) of the triangles emitted since `first_triangle`; false if none.
+  bool bounds_since(std::size_t first_triangle, Vec3* lo, Vec3* hi) const;
+  // Drops every triangle emitted since `first_triangle` (a placement that did not fit).
+  void truncate(std::size_t first_triangle);
 
   // Merges coincident vertices, attaches lights and scanning positions and returns the scene.
   Scene finish(std::vector<PointLight> lights, std::vector<ScanPosition> positions);

@@ -111,9 +111,16 @@ struct Renderer::Impl {
                         const Eigen::Vector3f& ray_dir, float pixel_footprint_m) const {
     const TriangleMesh& mesh = scene.mesh;
     Eigen::Vector3f albedo(0.8f, 0.8f, 0.8f);
+    const bool vertex_coloured = !mesh.vertex_colours.empty();
+    if (vertex_coloured) {
+      // Per-vertex colour, interpolated with the hit's barycentrics, is the base colour.
+      const Eigen::Vector3i& tri = mesh.triangles[triangle];
+      albedo = (1 - bu - bv) * mesh.vertex_colours[tri[0]] + bu * mesh.vertex_colours[tri[1]] +
+               bv * mesh.vertex_colours[tri[2]];
+    }
     if (!mesh.triangle_material.empty()) {
       const Material& material = scene.materials[mesh.triangle_material[triangle]];
-      albedo = material.albedo;
+      if (!vertex_coloured) albedo = material.albedo;
       if (material.texture >= 0 && !mesh.corner_uvs.empty()) {
         const Eigen::Vector2f uv = (1 - bu - bv) * mesh.corner_uvs[3 * triangle] +
                                    bu * mesh.corner_uvs[3 * triangle + 1] + bv * mesh.corner_uvs[3 * triangle + 2];

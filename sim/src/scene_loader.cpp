@@ -163,10 +163,18 @@ Scene load_scene_file(const fs::path& path) {
   Assimp::Importer importer;
   // Points and lines carry no surface: drop them after triangulation.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const unsigned flags =
-      aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices | aiProcess_SortByPType;
+  const unsigned flags = aiProcess_Triangulate | aiProcess_PreTransformVertices | aiProcess_SortByPType;
   const aiScene* imported = importer.ReadFile(file, flags);
   if (!imported) throw make_error(file, "", std::string("assimp cannot read it: ") + importer.GetErrorString());
+  // Shared vertices are joined, except in meshes coloured per vertex: assimp 5.2's
+  // JoinIdenticalVertices ignores colours and would merge corners of differently coloured faces
+  // (fixed upstream in assimp PR #4872, 2023). The renderer needs no shared vertices.
+  bool coloured_meshes = false;
+  for (unsigned m = 0; m < imported->mNumMeshes; ++m) coloured_meshes = coloured_meshes || imported->mMeshes[m]->HasVertexColors(0);
+  if (!coloured_meshes) {
+    imported = importer.ApplyPostProcessing(aiProcess_JoinIdenticalVertices);
+    if (!imported) throw make_error(file, "", std::string("assimp cannot read it: ") + importer.GetErrorString());
+  }
 
   Scene scene;
   scene.name = path.stem().string();
@@ -232,7 +240,13 @@ Scene load_scene_file(const fs::path& path) {
     scene.materials.push_back(material);
   }
 
-  // Geometry: node transforms are already applied (PreTransformVertices).
+  // Geometry: node transforms are already applied (PreTransformVertices). Per-vertex colours
+  // (channel 0) replace the material's albedo (TriangleMesh::vertex_colours); if only some meshes
+  // of the file have them, the others' vertices take their material's albedo, which renders them
+  // exactly as without vertex colours.
+  bool any_vertex_colours = false;
+  for (unsigned m = 0; m < imported->mNumMeshes; ++m)
+    any_vertex_colours = any_vertex_colours || imported->mMeshes[m]->HasVertexColors(0);
   for (unsigned m = 0; m < imported->mNumMeshes; ++m) {
     const aiMesh& source = *imported->mMeshes[m];
     const int first = static_cast<int>(mesh.vertices.size());
@@ -240,6 +254,21 @@ Scene load_scene_file(const fs::path& path) {
       mesh.vertices.emplace_back(source.mVertices[v].x, source.mVertices[v].y, source.mVertices[v].z);
     const bool has_uvs = source.HasTextureCoords(0);
     const int material = source.mMaterialIndex < material_of.size() ? material_of[source.mMaterialIndex] : -1;
+    if (any_vertex_colours) {
+      const Eigen::Vector3f fallback =
+          material >= 0 ? scene.materials[static_cast<std::size_t>(material)].albedo : Material().albedo;
+      for (unsigned v = 0; v < source.mNumVertices; ++v) {
+        Eigen::Vector3f colour = fallback;
+        if (source.HasVertexColors(0)) {
+          const aiColor4D& c = source.mColors[0][v];
+          colour = Eigen::Vector3f(c.r, c.g, c.b);
+          if (!colour.allFinite())
+            throw make_error(file, "vertex colour " + std::to_string(first + static_cast<int>(v)), "not finite");
+          colour = colour.cwiseMax(0.f).cwiseMin(1.f);
+        }
+        mesh.vertex_colours.push_back(colour);
+      }
+    }
     for (unsigned f = 0; f < source.mNumFaces; ++f) {
       const aiFace& face = source.mFaces[f];
       if (face.mNumIndices != 3) continue;
@@ -282,8 +311,12 @@ Scene load_scene_file(const fs::path& path) {
   return scene;
 }
 
-Scene load_scene(const std::string& name_or_path) {
-  if (scenes::is_builtin_scene(name_or_path)) return scenes::make_builtin_scene(name_or_path);
+Scene load_scene(const std::string& name_or_path, const scenes::SceneStyle& style, bool style_given) {
+  if (scenes::is_builtin_scene(name_or_path)) return scenes::make_builtin_scene(name_or_path, style);
+  if (style_given)
+    throw make_error(name_or_path, "scene.texture",
+                     "applies to the built-in scenes only: a scene file is rendered with its own materials (a "
+                     "generated room's density is chosen when generating it: scene generate --texture)");
   std::error_code ec;
   if (!fs::exists(fs::path(name_or_path), ec))
     throw make_error(name_or_path, "scene",

@@ -62,6 +62,7 @@ void check_tables_options(const TablesOptions& options) {
   config.set("noise.preset", options.noise);
   sim_options_from_config(config);
   if (options.threads < 0) throw make_error("--threads", "", "must not be negative");
+  scenes::texture_density_from_string(options.texture, "scene.texture");
 }
 
 const eval::ResultTable& TableRun::table(const std::string& title_prefix) const {
@@ -146,15 +147,17 @@ fs::path cached_scan(const std::string& label, const TablesOptions& options, int
   if (cache.empty()) throw make_error("tables", "cache", "no scan cache folder given");
   fs::create_directories(cache);
   // The key names everything that changes the scan.
-  const std::string key = fmt::format("{}_{}x{}_n{}_{}_seed{}", label, preset.width, preset.height, every,
-                                      options.noise, options.seed);
+  const std::string key = fmt::format("{}_{}x{}_n{}_{}_seed{}_tex-{}", label, preset.width, preset.height, every,
+                                      options.noise, options.seed, options.texture);
   const fs::path dir = cache / key;
   CacheLock lock(cache / (key + ".lock"));
   if (fs::exists(dir / "rig.json")) {
     record_scan_used(dir);
     return dir;
   }
-  const Scene scene = scenes::make_builtin_scene(scene_of_label(label));
+  scenes::SceneStyle style;
+  style.texture = scenes::texture_density_from_string(options.texture, "texture");
+  const Scene scene = scenes::make_builtin_scene(scene_of_label(label), style);
   int position = -1;
   for (std::size_t i = 0; i < scene.positions.size(); ++i)
     if (scene.positions[i].name == label) position = int(i);
@@ -213,7 +216,7 @@ TableRun run_and_write(const std::string& name, const TablesOptions& options) {
   j["settings"] = {{"size", preset.name}, {"width", preset.width}, {"height", preset.height},
                    {"every", preset.every}, {"panorama_height", preset.panorama_height},
                    {"tsdf_voxel_m", preset.tsdf_voxel_m}, {"noise", options.noise},
-                   {"seed", options.seed}, {"threads", options.threads}};
+                   {"seed", options.seed}, {"threads", options.threads}, {"scene_texture", options.texture}};
   j["driver_settings"] = nlohmann::json::parse(run.settings_json);
   for (const auto& t : run.tables) {
     nlohmann::json table;

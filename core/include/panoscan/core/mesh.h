@@ -31,6 +31,11 @@ struct TriangleMesh {
   std::vector<Eigen::Vector3i> triangles;   // counter-clockwise seen from outside/front
   std::vector<Eigen::Vector2f> corner_uvs;  // empty, or 3 per triangle (corner order)
   std::vector<int> triangle_material;       // empty, or 1 per triangle (index into materials)
+  // Empty, or 1 per vertex: the surface's base colour, components in [0, 1] used as stored (like
+  // texels, /255 for 8-bit sources), interpolated over each triangle. Where present it takes the
+  // place of the material's albedo (assimp's formats give a default grey diffuse colour to meshes
+  // coloured only per vertex) and still multiplies the material's texture, if any.
+  std::vector<Eigen::Vector3f> vertex_colours;
 
   std::size_t num_triangles() const { return triangles.size(); }
 };

@@ -25,6 +25,9 @@ struct TablesOptions {
   std::filesystem::path out;     // results; may be empty for in-memory runs (then cache is required)
   int threads = 0;               // 0 = all cores
   std::uint64_t seed = 1;
+  // The built-in scenes' texture density (scene.texture: icl | rich | plain); part of the scan
+  // cache key, so scans of one density are never reused for another.
+  std::string texture = "icl";
   // Restrict a driver to these scan or pair labels (e.g. "SO-1", "SO-13"); empty = the size's set.
   std::vector<std::string> only;
 };
