@@ -16,6 +16,7 @@
 #include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/renderer.h"
 #include "panoscan/sim/scene_loader.h"
+#include "panoscan/sim/simulator.h"
 #include "test_util.h"
 
 namespace panoscan {
@@ -146,6 +147,20 @@ TEST_P(GeneratedRoomTest, MeetsTheRoomConstraints) {
     }
     EXPECT_GE(front, rays - rays / 100) << position.name;
   }
+  // Exported, it loads as an ordinary scene file and the simulator scans its first position.
+  TempDir dir("generated-room");
+  scenes::export_scene(scene, dir.path());
+  const Scene loaded = load_scene_file(dir / (scene.name + ".obj"));
+  EXPECT_EQ(loaded.mesh.num_triangles(), scene.mesh.num_triangles());
+  ASSERT_EQ(loaded.positions.size(), scene.positions.size());
+  SimOptions tiny;
+  tiny.rig.width = 32;
+  tiny.rig.height = 24;
+  tiny.output.every = 300;
+  tiny.threads = 1;
+  EXPECT_GT(Simulator(loaded, 0, tiny).write_scan(dir / "scan", false), 0u);
+  EXPECT_TRUE(fs::exists(dir / "scan" / "rig.json"));
+
   std::printf("[ room     ] %s: %s %.2f x %.2f x %.2f m, %zu pieces placed, %zu positions (attempt %d)\n",
               scene.name.c_str(), room.outline.size() == 6 ? "L-shaped" : "rectangular", hi.x() - lo.x(),
               hi.y() - lo.y(), room.height, room.furniture.size(), scene.positions.size(), room.attempt);
