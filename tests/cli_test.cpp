@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "cli_util.h"
+#include "panoscan/core/json_file.h"
 #include "panoscan/core/version.h"
 #include "test_util.h"
 
@@ -215,5 +216,34 @@ TEST(Cli, SceneGenerateThenSim) {
     const std::string bytes_b((std::istreambuf_iterator<char>(b)), std::istreambuf_iterator<char>());
     EXPECT_FALSE(bytes_a.empty());
     EXPECT_TRUE(bytes_a == bytes_b) << file;
+  }
+}
+
+// A room with no texture at all (scene.texture=plain: every surface one colour, ORB finds only the
+// edges between objects): `recon track` either writes a correct trajectory (every camera's ATE
+// under 10 mm) or refuses with exit code 2 naming the check, writing nothing. Never a wrong one.
+TEST(Cli, ReconTrackOnAnUntexturedRoomIsCorrectOrRefused) {
+  panoscan::testutil::TempDir tmp("cli-plain");
+  const std::string scan = (tmp / "plain").string(), out = (tmp / "plain-track").string();
+  ASSERT_EQ(run("sim --scene office --position SO-1 --resolution 320x240 --every 16 --threads 2 "
+                "--set scene.texture=plain --out " + scan)
+                .exit_code,
+            0);
+  const RunResult tracked = run("recon track --scan " + scan + " --out " + out + " --threads 2");
+  std::printf("untextured office: %s", tracked.output.c_str());
+  if (tracked.exit_code != 0) {
+    EXPECT_EQ(tracked.exit_code, 2) << tracked.output;
+    expect_failure_naming(tracked, {scan, "not trustworthy"});
+    EXPECT_FALSE(fs::exists(out));
+    return;
+  }
+  for (const char* camera : {"cam0", "cam1", "cam2"}) {
+    const std::string report = (tmp / (std::string(camera) + ".json")).string();
+    const RunResult ate = run("eval traj --gt " + scan + "/groundtruth/" + camera + ".txt --est " + out + "/" + camera +
+                              ".txt --json " + report);
+    ASSERT_EQ(ate.exit_code, 0) << ate.output;
+    const double rmse_mm = panoscan::read_json_file(report).at("ate").at("rmse_mm").get<double>();
+    std::printf("  %s ATE %.2f mm\n", camera, rmse_mm);
+    EXPECT_LT(rmse_mm, 10.0) << camera << ": a wrong trajectory was written with exit code 0";
   }
 }

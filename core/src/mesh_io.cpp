@@ -3,6 +3,8 @@
 // read ASCII and binary (either byte order), skipping every element and property we do not need.
 #include "panoscan/core/mesh_io.h"
 
+#include "ply_header.h"
+
 #include <algorithm>
 #include <cctype>
 #include <charconv>
@@ -46,59 +48,12 @@ void append_little_endian(std::string& out, T value) {
 // ------------------------------------------------------------------------------------------------
 // Header model.
 
-enum class PlyFormat { kAscii, kBinaryLittleEndian, kBinaryBigEndian };
-enum class PlyType { kInt8, kUInt8, kInt16, kUInt16, kInt32, kUInt32, kFloat32, kFloat64 };
-
-struct PlyProperty {
-  std::string name;
-  PlyType type = PlyType::kFloat32;  // item type for lists
-  bool is_list = false;
-  PlyType count_type = PlyType::kUInt8;
-};
-
-struct PlyElement {
-  std::string name;
-  std::uint64_t count = 0;
-  std::vector<PlyProperty> properties;
-};
-
-bool parse_type(const std::string& word, PlyType* type) {
-  static const struct {
-    const char* name;
-    PlyType type;
-  } kTypes[] = {{"char", PlyType::kInt8},      {"int8", PlyType::kInt8},       {"uchar", PlyType::kUInt8},
-                {"uint8", PlyType::kUInt8},    {"short", PlyType::kInt16},     {"int16", PlyType::kInt16},
-                {"ushort", PlyType::kUInt16},  {"uint16", PlyType::kUInt16},   {"int", PlyType::kInt32},
-                {"int32", PlyType::kInt32},    {"uint", PlyType::kUInt32},     {"uint32", PlyType::kUInt32},
-                {"float", PlyType::kFloat32},  {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
-                {"float64", PlyType::kFloat64}};
-  for (const auto& entry : kTypes)
-    if (word == entry.name) {
-      *type = entry.type;
-      return true;
-    }
-  return false;
-}
-
-std::size_t type_size(PlyType type) {
-  switch (type) {
-    case PlyType::kInt8:
-    case PlyType::kUInt8:
-      return 1;
-    case PlyType::kInt16:
-    case PlyType::kUInt16:
-      return 2;
-    case PlyType::kInt32:
-    case PlyType::kUInt32:
-    case PlyType::kFloat32:
-      return 4;
-    case PlyType::kFloat64:
-      return 8;
-  }
-  return 0;
-}
-
-bool is_integer_type(PlyType type) { return type != PlyType::kFloat32 && type != PlyType::kFloat64; }
+using PlyFormat = ply::Format;
+using PlyType = ply::Type;
+using PlyProperty = ply::Property;
+using PlyElement = ply::Element;
+using ply::is_integer_type;
+using ply::type_size;
 
 // A colour channel of this type maps [0, colour_scale] to [0, 1].
 double colour_scale(PlyType type) {
@@ -231,15 +186,6 @@ class AsciiReader : public DataReader {
   std::size_t offset_;
 };
 
-std::string read_whole_file(const fs::path& path) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw make_error(path.string(), "", "PLY file not found");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw make_error(path.string(), "", "cannot open the PLY file");
-  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw make_error(path.string(), "", "error while reading the PLY file");
-  return data;
-}
 
 }  // namespace
 
@@ -288,79 +234,13 @@ void write_ply_mesh(const fs::path& path, const TriangleMesh& mesh) {
 
 TriangleMesh read_ply_mesh(const fs::path& path) {
   const std::string file = path.string();
-  const std::string data = read_whole_file(path);
+  const std::string data = ply::read_whole_file(file);
 
-  // --- Header: lines up to "end_header".
-  if (data.compare(0, 3, "ply") != 0 || (data.size() > 3 && data[3] != '\n' && data[3] != '\r'))
-    throw make_error(file, "header", "not a PLY file (it does not start with 'ply')");
-  std::size_t offset = 0;
-  bool header_ended = false;
-  bool have_format = false;
-  PlyFormat format = PlyFormat::kAscii;
-  std::vector<PlyElement> elements;
-  int line_number = 0;
-  while (offset < data.size()) {
-    const std::size_t newline = data.find('\n', offset);
-    if (newline == std::string::npos) break;
-    std::string line = data.substr(offset, newline - offset);
-    offset = newline + 1;
-    ++line_number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    std::istringstream words(line);
-    std::string keyword;
-    words >> keyword;
-    const std::string where = "header line " + std::to_string(line_number);
-    if (line_number == 1 || keyword.empty() || keyword == "comment" || keyword == "obj_info") continue;
-    if (keyword == "end_header") {
-      header_ended = true;
-      break;
-    }
-    if (keyword == "format") {
-      std::string name, version;
-      words >> name >> version;
-      if (name == "ascii")
-        format = PlyFormat::kAscii;
-      else if (name == "binary_little_endian")
-        format = PlyFormat::kBinaryLittleEndian;
-      else if (name == "binary_big_endian")
-        format = PlyFormat::kBinaryBigEndian;
-      else
-        throw make_error(file, where, "unknown format '" + name + "'");
-      have_format = true;
-    } else if (keyword == "element") {
-      PlyElement element;
-      std::string count;
-      words >> element.name >> count;
-      char* end = nullptr;
-      const unsigned long long value = std::strtoull(count.c_str(), &end, 10);
-      if (element.name.empty() || count.empty() || *end != '\0' || count[0] == '-')
-        throw make_error(file, where, "malformed element declaration '" + line + "'");
-      element.count = value;
-      elements.push_back(element);
-    } else if (keyword == "property") {
-      if (elements.empty()) throw make_error(file, where, "property before any element");
-      PlyProperty property;
-      std::string type;
-      words >> type;
-      if (type == "list") {
-        std::string count_type, item_type;
-        words >> count_type >> item_type >> property.name;
-        property.is_list = true;
-        if (!parse_type(count_type, &property.count_type) || !is_integer_type(property.count_type))
-          throw make_error(file, where, "bad list count type '" + count_type + "'");
-        if (!parse_type(item_type, &property.type)) throw make_error(file, where, "unknown type '" + item_type + "'");
-      } else {
-        words >> property.name;
-        if (!parse_type(type, &property.type)) throw make_error(file, where, "unknown type '" + type + "'");
-      }
-      if (property.name.empty()) throw make_error(file, where, "property without a name");
-      elements.back().properties.push_back(property);
-    } else {
-      throw make_error(file, where, "unknown header keyword '" + keyword + "'");
-    }
-  }
-  if (!header_ended) throw make_error(file, "header", "no 'end_header' line (truncated or not a PLY file)");
-  if (!have_format) throw make_error(file, "header", "no 'format' line");
+  // --- Header (ply_header.h).
+  const ply::Header header = ply::parse_header(data, file);
+  const PlyFormat format = header.format;
+  const std::vector<PlyElement>& elements = header.elements;
+  std::size_t offset = header.body_offset;
 
   // --- What we need: x, y, z of "vertex" and the index list of "face".
   const PlyElement* vertex_element = nullptr;

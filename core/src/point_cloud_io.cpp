@@ -8,6 +8,8 @@
 
 #include "panoscan/core/point_cloud.h"
 
+#include "ply_header.h"
+
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -45,145 +47,28 @@ void PointCloud::check(const std::string& origin) const {
 
 namespace {
 
-enum class PlyType { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, kFloat64 };
+using PlyType = ply::Type;
+using PlyProperty = ply::Property;
+using PlyElement = ply::Element;
+using ply::type_size;
 
-std::optional<PlyType> parse_type(const std::string& name) {
-  if (name == "char" || name == "int8") return PlyType::kInt8;
-  if (name == "uchar" || name == "uint8") return PlyType::kUint8;
-  if (name == "short" || name == "int16") return PlyType::kInt16;
-  if (name == "ushort" || name == "uint16") return PlyType::kUint16;
-  if (name == "int" || name == "int32") return PlyType::kInt32;
-  if (name == "uint" || name == "uint32") return PlyType::kUint32;
-  if (name == "float" || name == "float32") return PlyType::kFloat32;
-  if (name == "double" || name == "float64") return PlyType::kFloat64;
-  return std::nullopt;
-}
+bool is_float_type(PlyType type) { return !ply::is_integer_type(type); }
 
-std::size_t type_size(PlyType type) {
-  switch (type) {
-    case PlyType::kInt8:
-    case PlyType::kUint8: return 1;
-    case PlyType::kInt16:
-    case PlyType::kUint16: return 2;
-    case PlyType::kInt32:
-    case PlyType::kUint32:
-    case PlyType::kFloat32: return 4;
-    case PlyType::kFloat64: return 8;
-  }
-  return 0;
-}
-
-bool is_float_type(PlyType type) { return type == PlyType::kFloat32 || type == PlyType::kFloat64; }
-
-struct PlyProperty {
-  std::string name;
-  PlyType type = PlyType::kFloat32;
-  bool is_list = false;
-  PlyType count_type = PlyType::kUint8;  // lists only
-};
-
-struct PlyElement {
-  std::string name;
-  std::size_t count = 0;
-  std::vector<PlyProperty> properties;
-};
-
+// The shared header (ply_header.h); this reader decodes ASCII and little-endian bodies.
 struct PlyHeader {
   bool ascii = false;
   std::vector<PlyElement> elements;
   std::size_t body_offset = 0;
 };
 
-std::string read_whole_file(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw make_error(path.string(), "", "file not found");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw make_error(path.string(), "", "cannot open for reading");
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  if (in.bad()) throw make_error(path.string(), "", "read error");
-  return buffer.str();
-}
-
-std::vector<std::string> split_words(const std::string& line) {
-  std::istringstream stream(line);
-  std::vector<std::string> words;
-  std::string word;
-  while (stream >> word) words.push_back(word);
-  return words;
-}
-
 PlyHeader parse_header(const std::string& bytes, const std::string& file) {
-  PlyHeader header;
-  std::size_t pos = 0;
-  bool have_format = false;
-  int line_number = 0;
-  while (true) {
-    const std::size_t end = bytes.find('\n', pos);
-    if (end == std::string::npos) throw make_error(file, "header", "not a PLY file: no 'end_header' line");
-    std::string line = bytes.substr(pos, end - pos);
-    pos = end + 1;
-    ++line_number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line_number == 1) {
-      if (line != "ply") throw make_error(file, "header", "not a PLY file: the first line is not 'ply'");
-      continue;
-    }
-    const std::vector<std::string> words = split_words(line);
-    if (words.empty()) continue;
-    const std::string& keyword = words[0];
-    const std::string field = "header line " + std::to_string(line_number);
-    if (keyword == "end_header") break;
-    if (keyword == "comment" || keyword == "obj_info") continue;
-    if (keyword == "format") {
-      if (words.size() != 3) throw make_error(file, field, "malformed 'format' line");
-      if (words[1] == "ascii") {
-        header.ascii = true;
-      } else if (words[1] == "binary_little_endian") {
-        header.ascii = false;
-      } else if (words[1] == "binary_big_endian") {
-        throw make_error(file, "format", "binary_big_endian PLY is not supported (convert it to little-endian)");
-      } else {
-        throw make_error(file, "format", "unknown PLY format '" + words[1] + "'");
-      }
-      have_format = true;
-    } else if (keyword == "element") {
-      if (words.size() != 3) throw make_error(file, field, "malformed 'element' line");
-      char* parse_end = nullptr;
-      errno = 0;
-      const unsigned long long count = std::strtoull(words[2].c_str(), &parse_end, 10);
-      if (words[2].empty() || words[2][0] == '-' || *parse_end != '\0' || errno == ERANGE)
-        throw make_error(file, "element " + words[1], "count '" + words[2] + "' is not a non-negative integer");
-      header.elements.push_back({words[1], static_cast<std::size_t>(count), {}});
-    } else if (keyword == "property") {
-      if (header.elements.empty()) throw make_error(file, field, "'property' before any 'element'");
-      PlyProperty property;
-      if (words.size() == 5 && words[1] == "list") {
-        const auto count_type = parse_type(words[2]);
-        const auto item_type = parse_type(words[3]);
-        if (!count_type || !item_type || is_float_type(*count_type))
-          throw make_error(file, "property " + words[4], "unsupported list types '" + words[2] + " " + words[3] + "'");
-        property.is_list = true;
-        property.count_type = *count_type;
-        property.type = *item_type;
-        property.name = words[4];
-      } else if (words.size() == 3) {
-        const auto type = parse_type(words[1]);
-        if (!type) throw make_error(file, "property " + words[2], "unknown type '" + words[1] + "'");
-        property.type = *type;
-        property.name = words[2];
-      } else {
-        throw make_error(file, field, "malformed 'property' line");
-      }
-      header.elements.back().properties.push_back(property);
-    } else {
-      throw make_error(file, field, "unknown header keyword '" + keyword + "'");
-    }
-  }
-  if (!have_format) throw make_error(file, "format", "missing 'format' line in the PLY header");
-  header.body_offset = pos;
-  return header;
+  const ply::Header parsed = ply::parse_header(bytes, file);
+  if (parsed.format == ply::Format::kBinaryBigEndian)
+    throw make_error(file, "format", "binary_big_endian PLY is not supported (convert it to little-endian)");
+  return {parsed.format == ply::Format::kAscii, parsed.elements, parsed.body_offset};
 }
+
+std::string read_whole_file(const std::filesystem::path& path) { return ply::read_whole_file(path.string()); }
 
 // Reads values of the body one at a time, in either encoding. Throws a "truncated" Error naming
 // the element and instance (set by the caller through `where`) when the data runs out.
@@ -238,11 +123,11 @@ class BodyReader {
     const std::uint64_t bits = little_endian_bits(type_size(type));
     switch (type) {
       case PlyType::kInt8: return static_cast<std::int8_t>(bits);
-      case PlyType::kUint8: return static_cast<std::uint8_t>(bits);
+      case PlyType::kUInt8: return static_cast<std::uint8_t>(bits);
       case PlyType::kInt16: return static_cast<std::int16_t>(bits);
-      case PlyType::kUint16: return static_cast<std::uint16_t>(bits);
+      case PlyType::kUInt16: return static_cast<std::uint16_t>(bits);
       case PlyType::kInt32: return static_cast<std::int32_t>(bits);
-      case PlyType::kUint32: return static_cast<std::uint32_t>(bits);
+      case PlyType::kUInt32: return static_cast<std::uint32_t>(bits);
       case PlyType::kFloat32: {
         const std::uint32_t narrow = static_cast<std::uint32_t>(bits);
         float f;
@@ -338,7 +223,7 @@ PointCloud read_ply_point_cloud(const std::filesystem::path& path) {
   const auto rgb = find_triplet(vertex, {"red", "green", "blue"}, false, file);
   if (rgb)
     for (int k = 0; k < 3; ++k)
-      if (vertex.properties[(*rgb)[k]].type != PlyType::kUint8)
+      if (vertex.properties[(*rgb)[k]].type != PlyType::kUInt8)
         throw make_error(file, "property " + vertex.properties[(*rgb)[k]].name, "colours must be uchar (0..255)");
   const int variance_index = find_property(vertex, "variance");
   if (variance_index >= 0 && (vertex.properties[variance_index].is_list ||

@@ -55,6 +55,8 @@ void TrackingVerifyOptions::check(const std::string& origin) const {
   require(pair_translation_tolerance_m > 0, "track.verify.pair_translation_tolerance_m", "must be > 0");
   require(min_consistent_pair_share >= 0 && min_consistent_pair_share <= 1, "track.verify.min_consistent_pair_share",
           "must be in [0, 1]");
+  require(min_consistent_loop_share >= 0 && min_consistent_loop_share <= 1, "track.verify.min_consistent_loop_share",
+          "must be in [0, 1]");
   require(max_outlier_share >= 0 && max_outlier_share <= 1, "track.verify.max_outlier_share", "must be in [0, 1]");
   require(max_extrinsics_change_deg > 0, "track.verify.max_extrinsics_change_deg", "must be > 0");
   require(max_extrinsics_change_m > 0, "track.verify.max_extrinsics_change_m", "must be > 0");
@@ -131,6 +133,8 @@ TrackingOptions tracking_options_from_config(Config& config) {
       config.get_double("track.verify.pair_translation_tolerance_m", v.pair_translation_tolerance_m, 1e-6, 10.0);
   v.min_consistent_pair_share =
       config.get_double("track.verify.min_consistent_pair_share", v.min_consistent_pair_share, 0.0, 1.0);
+  v.min_consistent_loop_share =
+      config.get_double("track.verify.min_consistent_loop_share", v.min_consistent_loop_share, 0.0, 1.0);
   v.max_outlier_share = config.get_double("track.verify.max_outlier_share", v.max_outlier_share, 0.0, 1.0);
   v.max_extrinsics_change_deg =
       config.get_double("track.verify.max_extrinsics_change_deg", v.max_extrinsics_change_deg, 1e-4, 180.0);

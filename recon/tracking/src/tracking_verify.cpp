@@ -139,7 +139,8 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
     const PairCheck p = check_pairs(result, frontend, observations, loop, v);
     const double share = p.pairs > 0 ? double(p.consistent) / p.pairs : 1.0;
     const char* what = loop ? "loop-closure pairs" : "verified frame pairs";
-    add(loop ? "loop" : "pairs", share >= v.min_consistent_pair_share, share, v.min_consistent_pair_share,
+    const double min_share = loop ? v.min_consistent_loop_share : v.min_consistent_pair_share;
+    add(loop ? "loop" : "pairs", share >= min_share, share, min_share,
         p.pairs == 0 ? fmt::format("no {} to compare with", what)
                      : fmt::format("{} of {} {} agree with the tracked poses within {:.1f} deg / {:.0f} mm (worst {:.2f} "
                                    "deg / {:.0f} mm)",

@@ -64,8 +64,13 @@ struct TrackingVerifyOptions {
   double max_turn_deg = 380;              // track.verify.max_turn_deg: ... and not much more
   double max_backward_step_deg = 2.0;     // track.verify.max_backward_step_deg: azimuth steps against the turn
   double pair_rotation_tolerance_deg = 2.0;  // track.verify.pair_rotation_tolerance_deg: tracked vs verified pairs
-  double pair_translation_tolerance_m = 0.05;  // track.verify.pair_translation_tolerance_m
-  double min_consistent_pair_share = 0.8;  // track.verify.min_consistent_pair_share
+  // track.verify.pair_translation_tolerance_m: lambda_a (a pair's RANSAC translation from few, far
+  // features is itself uncertain; see recon/tracking/README.md).
+  double pair_translation_tolerance_m = 0.15;
+  double min_consistent_pair_share = 0.8;  // track.verify.min_consistent_pair_share (same-camera pairs)
+  // track.verify.min_consistent_loop_share: lower than for same-camera pairs, since a repetitive room
+  // gives RANSAC-verified false loop matches, while a wrong trajectory disagrees with nearly all.
+  double min_consistent_loop_share = 0.5;
   double max_outlier_share = 0.2;         // track.verify.max_outlier_share: whitened residual > 3 huber_delta
   double max_extrinsics_change_deg = 3.0;  // track.verify.max_extrinsics_change_deg: T_c vs the calibration
   double max_extrinsics_change_m = 0.03;  // track.verify.max_extrinsics_change_m
@@ -180,7 +185,7 @@ struct TrackingResult {
 //  - monotone: its azimuth never steps back by more than max_backward_step_deg;
 //  - pairs, loop: the tracked relative poses of the front end's verified frame pairs (same camera;
 //    loop closure) agree with the pairs' RANSAC poses within the pair tolerances, for at least
-//    min_consistent_pair_share of the pairs (every loop pair);
+//    min_consistent_pair_share of the same-camera pairs and min_consistent_loop_share of the loop pairs;
 //  - residuals: at most max_outlier_share of the observations are gross outliers;
 //  - extrinsics: each estimated T_c within max_extrinsics_change_* of the calibration (rig.json);
 //  - axis: the rotation axis within max_axis_tilt_deg of the reference camera's up;
