@@ -7,7 +7,7 @@
 #include <opencv2/features2d.hpp>
 
 #include "panoscan/core/error.h"
-#include "panoscan/core/random.h"
+#include "panoscan/core/rigid_ransac.h"
 
 namespace panoscan {
 
@@ -94,47 +94,22 @@ FeatureAlignment align_panorama_features(const PanoramaImages& source, const Pan
     result.failure = "only " + std::to_string(result.matches) + " feature matches";
     return result;
   }
-  // RANSAC over minimal sets of 3 pairs.
-  RandomStream rng(options.seed, 0, 0, RandomPurpose::kGeneric);
-  const double threshold2 = options.inlier_threshold_m * options.inlier_threshold_m;
-  std::vector<std::size_t> best_inliers;
+  // The one 3D-3D RANSAC (core/rigid_ransac.h) with one threshold for every pair, then two refits.
+  const std::vector<double> thresholds(matched_from.size(), options.inlier_threshold_m);
+  RigidRansacResult ransac;
   const int n = result.matches;
-  for (int iteration = 0; iteration < options.ransac_iterations; ++iteration) {
-    const int a = rng.uniform_int(0, n - 1), b = rng.uniform_int(0, n - 1), c = rng.uniform_int(0, n - 1);
-    if (a == b || b == c || a == c) continue;
-    Rigid3d hypothesis;
-    if (!fit_rigid_transform({matched_from[a], matched_from[b], matched_from[c]},
-                             {matched_to[a], matched_to[b], matched_to[c]}, hypothesis))
-      continue;
-    std::vector<std::size_t> inliers;
-    for (int i = 0; i < n; ++i)
-      if ((hypothesis * matched_from[i] - matched_to[i]).squaredNorm() < threshold2) inliers.push_back(std::size_t(i));
-    if (inliers.size() > best_inliers.size()) best_inliers = std::move(inliers);
-  }
-  if (int(best_inliers.size()) < options.min_inliers) {
-    result.failure = "RANSAC found only " + std::to_string(best_inliers.size()) + " consistent matches of " +
+  const bool found = rigid_ransac(matched_to, matched_from, thresholds, options.ransac_iterations, options.min_inliers,
+                                  options.seed, 0, &ransac);
+  if (!found) {
+    result.failure = "RANSAC found only " + std::to_string(ransac.inliers.size()) + " consistent matches of " +
                      std::to_string(n);
-    result.inliers = int(best_inliers.size());
+    result.inliers = int(ransac.inliers.size());
     return result;
   }
-  // Refit on all inliers, then re-collect them once with the refined pose.
-  for (int round = 0; round < 2; ++round) {
-    std::vector<Eigen::Vector3d> inlier_from, inlier_to;
-    for (std::size_t i : best_inliers) {
-      inlier_from.push_back(matched_from[i]);
-      inlier_to.push_back(matched_to[i]);
-    }
-    if (!fit_rigid_transform(inlier_from, inlier_to, result.target_from_source)) {
-      result.failure = "degenerate inlier set";
-      return result;
-    }
-    best_inliers.clear();
-    for (int i = 0; i < n; ++i)
-      if ((result.target_from_source * matched_from[i] - matched_to[i]).squaredNorm() < threshold2)
-        best_inliers.push_back(std::size_t(i));
-  }
+  result.target_from_source = ransac.a_from_b;
+  const std::vector<int>& best_inliers = ransac.inliers;
   double sum = 0;
-  for (std::size_t i : best_inliers) sum += (result.target_from_source * matched_from[i] - matched_to[i]).squaredNorm();
+  for (int i : best_inliers) sum += (result.target_from_source * matched_from[i] - matched_to[i]).squaredNorm();
   result.inliers = int(best_inliers.size());
   result.inlier_rmse_m = best_inliers.empty() ? 0.0 : std::sqrt(sum / best_inliers.size());
   result.success = result.inliers >= options.min_inliers;

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "panoscan/core/geometry.h"
+#include "panoscan/core/rigid_ransac.h"
 #include "panoscan/core/scan.h"
 
 namespace panoscan {
@@ -91,15 +92,6 @@ struct FrontendResult {
 // Runs the whole front end on a scan (reads the frames). Throws Error on unreadable frames.
 FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& options);
 
-// 3D-3D RANSAC (3 points, closed-form Kabsch/Umeyama without scale, refit on the inliers).
-// Inlier if |a_i - T b_i| < threshold_i. Returns false with fewer than min_inliers inliers.
-struct RigidRansacResult {
-  Rigid3d a_from_b = Rigid3d::Identity();
-  std::vector<int> inliers;
-};
-bool rigid_ransac(const std::vector<Eigen::Vector3d>& points_a, const std::vector<Eigen::Vector3d>& points_b,
-                  const std::vector<double>& thresholds, int iterations, int min_inliers, std::uint64_t seed,
-                  std::int64_t stream_key, RigidRansacResult* result);
-// (The least-squares fit is core's fit_rigid_transform.)
+// Frame pairs are verified with core's rigid_ransac (panoscan/core/rigid_ransac.h).
 
 }  // namespace panoscan

@@ -1,9 +1,9 @@
-// 3D-3D RANSAC between matched keypoints with depth (paper §4.1: "We utilize RANSAC to sample
-// and reach a consensus on confident 3D transformations").
+// 3D-3D RANSAC (rigid_ransac.h).
+#include "panoscan/core/rigid_ransac.h"
+
 #include <Eigen/Dense>
 
 #include "panoscan/core/random.h"
-#include "panoscan/recon/frontend.h"
 
 namespace panoscan {
 
@@ -36,7 +36,10 @@ bool rigid_ransac(const std::vector<Eigen::Vector3d>& points_a, const std::vecto
     count_inliers(hypothesis, &current);
     if (current.size() > best.size()) best.swap(current);
   }
-  if (int(best.size()) < std::max(3, min_inliers)) return false;
+  if (int(best.size()) < std::max(3, min_inliers)) {
+    if (result) result->inliers = best;
+    return false;
+  }
   // Refit on the inliers twice (the consensus set may grow).
   Rigid3d a_from_b = Rigid3d::Identity();
   for (int refit = 0; refit < 2; ++refit) {
@@ -50,7 +53,10 @@ bool rigid_ransac(const std::vector<Eigen::Vector3d>& points_a, const std::vecto
     if (int(current.size()) < std::max(3, min_inliers)) break;
     best.swap(current);
   }
-  if (int(best.size()) < std::max(3, min_inliers)) return false;
+  if (int(best.size()) < std::max(3, min_inliers)) {
+    if (result) result->inliers = best;
+    return false;
+  }
   result->a_from_b = a_from_b;
   result->inliers = best;
   return true;
