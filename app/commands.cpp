@@ -38,8 +38,6 @@ namespace panoscan::app {
 
 namespace {
 
-
-
 // The sim's options and the scene's style (scene.texture), from one config.
 struct ResolvedSim {
   SimOptions options;
@@ -119,8 +117,6 @@ void run_sim(const SimArguments& a, const std::vector<std::string>& defaults) {
                            directory_size(a.out) / 1e6);
 }
 
-
-
 void run_eval_cloud(const EvalCloudArguments& a) {
   std::string mesh = a.mesh;
   std::vector<fs::path> viewpoints(a.viewpoints_from.begin(), a.viewpoints_from.end());
@@ -144,7 +140,6 @@ void run_eval_cloud(const EvalCloudArguments& a) {
   std::cout << eval::cloud_report_to_text(report);
   if (!a.json.empty()) eval::write_report(a.json, eval::cloud_report_to_json(report));
 }
-
 
 void run_eval_flat(const EvalFlatArguments& a) {
   if (a.panorama.empty() == a.image.empty())
@@ -182,7 +177,6 @@ void run_eval_traj(const EvalTrajArguments& a) {
   std::cout << eval::trajectory_report_to_text(report);
   if (!a.json.empty()) eval::write_report(a.json, eval::trajectory_report_to_json(report));
 }
-
 
 void run_scene_list() {
   for (const std::string& name : scenes::builtin_scene_names()) {
@@ -224,11 +218,11 @@ void run_scene_generate(const SceneGenerateArguments& a) {
     lo = lo.cwiseMin(corner);
     hi = hi.cwiseMax(corner);
   }
-  std::cout << fmt::format("generated {} ({}, {:.2f} x {:.2f} m, {:.2f} m high, texture {}): {} triangles, {} pieces "
-                           "placed; positions:",
-                           room.scene.name, room.outline.size() == 6 ? "L-shaped" : "rectangular", hi.x() - lo.x(),
-                           hi.y() - lo.y(), room.height, scenes::to_string(spec.style.texture),
-                           room.scene.mesh.num_triangles(), room.furniture.size());
+  std::cout << fmt::format(
+      "generated {} ({}, {:.2f} x {:.2f} m, {:.2f} m high, texture {}): {} triangles, {} pieces "
+      "placed; positions:",
+      room.scene.name, room.outline.size() == 6 ? "L-shaped" : "rectangular", hi.x() - lo.x(), hi.y() - lo.y(),
+      room.height, scenes::to_string(spec.style.texture), room.scene.mesh.num_triangles(), room.furniture.size());
   for (std::size_t i = 0; i < room.scene.positions.size(); ++i) {
     const auto& p = room.scene.positions[i];
     std::cout << fmt::format(" {} ({:.2f}, {:.2f}; clearance {:.2f} m)", p.name, p.floor_point.x(), p.floor_point.y(),
@@ -245,8 +239,7 @@ void run_recon_track(const ReconTrackArguments& a) {
   if (a.allow_unreliable) config.set("track.allow_unreliable", "true");
   const TrackingOptions options = tracking_options_from_config(config);
   config.check_all_used();
-  if (fs::exists(a.out) && !a.overwrite)
-    throw make_error(a.out, "", "already exists (use --overwrite to replace it)");
+  if (fs::exists(a.out) && !a.overwrite) throw make_error(a.out, "", "already exists (use --overwrite to replace it)");
   const ScanIndex scan = read_scan_index(a.scan);
   const TrackingResult result = track_scan(scan, options);
   require_reliable_tracking(result, options, a.scan);
@@ -256,8 +249,9 @@ void run_recon_track(const ReconTrackArguments& a) {
                            to_string(options.mode), s.iterations, s.initial_cost, s.final_cost,
                            s.converged ? "converged" : "NOT converged", a.out);
   if (!result.verdict.reliable)
-    std::cout << fmt::format("UNRELIABLE (kept for inspection, marked in rig_estimate.json and tracking_stats.json): {}\n",
-                             result.verdict.first_failure());
+    std::cout << fmt::format(
+        "UNRELIABLE (kept for inspection, marked in rig_estimate.json and tracking_stats.json): {}\n",
+        result.verdict.first_failure());
 }
 
 namespace {
@@ -306,11 +300,12 @@ void run_recon_panorama(const ReconPanoramaArguments& a) {
   const RigTrajectory trajectory = scan_trajectory(a.poses, a.scan, scan, tracking);
   const PanoramaResult result = build_panorama(scan, trajectory, options);
   write_panorama(a.out, result.panorama, a.overwrite);
-  std::cout << fmt::format("panorama {}x{} ({}, lambda {:.3g}) from {} frames: {} measurements ({:.1f} MB), warp "
-                           "{:.1f} s, fusion {:.1f} s; wrote {}\n",
-                           result.panorama.pano.width(), result.panorama.pano.height, result.panorama.method,
-                           result.panorama.lambda, result.frames_used, result.measurements,
-                           result.measurement_bytes / 1e6, result.warp_seconds, result.fusion_seconds, a.out);
+  std::cout << fmt::format(
+      "panorama {}x{} ({}, lambda {:.3g}) from {} frames: {} measurements ({:.1f} MB), warp "
+      "{:.1f} s, fusion {:.1f} s; wrote {}\n",
+      result.panorama.pano.width(), result.panorama.pano.height, result.panorama.method, result.panorama.lambda,
+      result.frames_used, result.measurements, result.measurement_bytes / 1e6, result.warp_seconds,
+      result.fusion_seconds, a.out);
 }
 
 void run_recon_scene(const ReconSceneArguments& a) {
@@ -333,8 +328,8 @@ void run_recon_scene(const ReconSceneArguments& a) {
   const SceneResult result = reconstruct_scene(scans, options);
   PointCloud cloud = result.integration.cloud;
   if (a.align_to_ground_truth && a.poses == "tracked")
-    cloud = transformed(cloud, scene_from_reconstruction(a.scans[0], result.trajectories[0],
-                                                         scans[0].scan.rig.reference_sensor));
+    cloud = transformed(
+        cloud, scene_from_reconstruction(a.scans[0], result.trajectories[0], scans[0].scan.rig.reference_sensor));
   // Everything goes into a temporary sibling folder that replaces `out` only when complete.
   AtomicDirectory output(a.out, a.overwrite);
   write_ply_point_cloud(output.temp_path() / "cloud.ply", cloud);
@@ -347,13 +342,13 @@ void run_recon_scene(const ReconSceneArguments& a) {
   write_file_atomic(output.temp_path() / "placement.json",
                     placement_to_json(names, result.registrations, result.placement).dump(2) + "\n");
   output.commit();
-  std::cout << fmt::format("scene of {} scans: {} registrations ({} skipped{}), {} points ({} merged groups); "
-                           "times: tracking {:.1f} s, panoramas {:.1f} s, registration {:.1f} s, integration {:.1f} s; "
-                           "wrote {}/cloud.ply\n",
-                           scans.size(), result.edges.size(), result.skipped_pairs.size(),
-                           result.pose_graph_used ? ", pose graph" : "", cloud.size(), result.integration.groups,
-                           result.seconds_tracking, result.seconds_panorama, result.seconds_registration,
-                           result.seconds_integration, a.out);
+  std::cout << fmt::format(
+      "scene of {} scans: {} registrations ({} skipped{}), {} points ({} merged groups); "
+      "times: tracking {:.1f} s, panoramas {:.1f} s, registration {:.1f} s, integration {:.1f} s; "
+      "wrote {}/cloud.ply\n",
+      scans.size(), result.edges.size(), result.skipped_pairs.size(), result.pose_graph_used ? ", pose graph" : "",
+      cloud.size(), result.integration.groups, result.seconds_tracking, result.seconds_panorama,
+      result.seconds_registration, result.seconds_integration, a.out);
 }
 
 void run_demo(const DemoArguments& a) {
@@ -388,7 +383,8 @@ void run_demo(const DemoArguments& a) {
       scene_from_reconstruction(dirs[0], result.trajectories[0], scans[0].scan.rig.reference_sensor);
   std::vector<PanoramaPoints> points;
   for (std::size_t k = 0; k < scans.size(); ++k)
-    points.push_back(panorama_integration_points(result.panoramas[k], result.world_from_panorama[k], options.registration.cloud));
+    points.push_back(
+        panorama_integration_points(result.panoramas[k], result.world_from_panorama[k], options.registration.cloud));
   const eval::MeshDistance mesh(scene.mesh, "office");
   std::cout << fmt::format("\nPanoScan demo: office {} + {}, 320x240, every 16th frame, tracked poses, TSA panoramas\n",
                            scans[0].name, scans[1].name);
@@ -398,15 +394,16 @@ void run_demo(const DemoArguments& a) {
     integration.method = method;
     const PointCloud cloud = transformed(integrate_panoramas(points, integration).cloud, scene_from_recon);
     const eval::ErrorStats d = eval::summarize_errors(mesh.distances(cloud.positions));
-    std::cout << fmt::format("| {} | {} | {:.2f} | {:.2f} | {:.2f} |\n", to_string(method), cloud.size(),
-                             d.rmse * 1e3, d.mean * 1e3, d.median * 1e3);
+    std::cout << fmt::format("| {} | {} | {:.2f} | {:.2f} | {:.2f} |\n", to_string(method), cloud.size(), d.rmse * 1e3,
+                             d.mean * 1e3, d.median * 1e3);
     write_ply_point_cloud(fs::path(a.out) / (std::string("cloud-") + to_string(method) + ".ply"), cloud);
   }
   const double seconds = seconds_since(start);
-  std::cout << fmt::format("\n{} registration(s); times: tracking {:.1f} s, panoramas {:.1f} s, registration {:.1f} s; "
-                           "total {:.0f} s. Scans and clouds in {}/\n",
-                           result.edges.size(), result.seconds_tracking, result.seconds_panorama,
-                           result.seconds_registration, seconds, a.out);
+  std::cout << fmt::format(
+      "\n{} registration(s); times: tracking {:.1f} s, panoramas {:.1f} s, registration {:.1f} s; "
+      "total {:.0f} s. Scans and clouds in {}/\n",
+      result.edges.size(), result.seconds_tracking, result.seconds_panorama, result.seconds_registration, seconds,
+      a.out);
 }
 
 void run_tables(const TablesArguments& a) {

@@ -131,7 +131,7 @@ void run_demo(const DemoArguments& arguments);
 struct TablesArguments {
   std::vector<std::string> names;  // table names, "all" or "list"
   std::string size = "quick";
-  std::string noise = "handa";      // a preset, or "both" (handa then kinect)
+  std::string noise = "handa";  // a preset, or "both" (handa then kinect)
   std::string out = "panoscan-tables";
   std::string cache;
   std::vector<std::string> only;

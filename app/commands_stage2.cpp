@@ -47,7 +47,8 @@ Rigid3d read_initial_pose(const std::string& file) {
 PoseGraphEdge read_registration_edge(const std::string& file, const std::vector<std::string>& panoramas) {
   const nlohmann::json j = read_json_file(file, "expected an output of recon register");
   for (const char* field : {"source", "target", "target_from_source"})
-    if (!j.is_object() || !j.contains(field)) throw make_error(file, field, "missing (expected an output of recon register)");
+    if (!j.is_object() || !j.contains(field))
+      throw make_error(file, field, "missing (expected an output of recon register)");
   if (!j["source"].is_string() || !j["target"].is_string())
     throw make_error(file, "source", "source and target must be panorama folder paths");
   auto index_of = [&](const std::string& path, const std::string& field) {
@@ -98,13 +99,20 @@ void run_recon_register(const ReconRegisterArguments& a) {
   j["target_from_source"] = pose_to_json(r.target_from_source);
   j["initial"] = {{"kind", initial ? "given" : "orb-ransac"},
                   {"pose", pose_to_json(initial ? *initial : r.guess.target_from_source)}};
-  j["orb"] = {{"success", r.guess.success},        {"failure", r.guess.failure},
-              {"source_features", r.guess.source_features}, {"target_features", r.guess.target_features},
-              {"matches", r.guess.matches},        {"inliers", r.guess.inliers},
-              {"inlier_rmse_m", r.guess.inlier_rmse_m}, {"consistent_with_result", r.consistent_matches}};
-  j["icp"] = {{"iterations", r.icp.iterations},   {"converged", r.icp.converged},
-              {"correspondences", r.icp.correspondences}, {"inlier_fraction", r.icp.inlier_fraction},
-              {"fitness", r.icp.fitness},         {"fitness_distance_m", options.icp.fitness_distance_m},
+  j["orb"] = {{"success", r.guess.success},
+              {"failure", r.guess.failure},
+              {"source_features", r.guess.source_features},
+              {"target_features", r.guess.target_features},
+              {"matches", r.guess.matches},
+              {"inliers", r.guess.inliers},
+              {"inlier_rmse_m", r.guess.inlier_rmse_m},
+              {"consistent_with_result", r.consistent_matches}};
+  j["icp"] = {{"iterations", r.icp.iterations},
+              {"converged", r.icp.converged},
+              {"correspondences", r.icp.correspondences},
+              {"inlier_fraction", r.icp.inlier_fraction},
+              {"fitness", r.icp.fitness},
+              {"fitness_distance_m", options.icp.fitness_distance_m},
               {"rmse_m", r.icp.rmse_m}};
   // When both panoramas were built in one frame (ground-truth poses of one scene), their stored
   // poses give the true relative pose; otherwise (tracked, each scan in its own frame) this
@@ -157,14 +165,15 @@ void run_recon_integrate(const ReconIntegrateArguments& a) {
     world_from_panorama = placement.world_from_panorama;
     placement_record = placement_to_json(a.panoramas, edges, placement);
     if (!placement.dropped.empty())
-      graph_report += fmt::format("; {} registration(s) dropped ({})", placement.dropped.size(), placement.dropped.front());
+      graph_report +=
+          fmt::format("; {} registration(s) dropped ({})", placement.dropped.size(), placement.dropped.front());
     if (placement.pose_graph_used)
-      graph_report += fmt::format("; pose graph over {} registrations: worst inconsistency {:.3f} deg / {:.1f} mm -> "
-                                  "{:.3f} deg / {:.1f} mm",
-                                  edges.size() - placement.dropped.size(), placement.inconsistency_chained.rotation_deg,
-                                  placement.inconsistency_chained.translation_m * 1e3,
-                                  placement.inconsistency_final.rotation_deg,
-                                  placement.inconsistency_final.translation_m * 1e3);
+      graph_report += fmt::format(
+          "; pose graph over {} registrations: worst inconsistency {:.3f} deg / {:.1f} mm -> "
+          "{:.3f} deg / {:.1f} mm",
+          edges.size() - placement.dropped.size(), placement.inconsistency_chained.rotation_deg,
+          placement.inconsistency_chained.translation_m * 1e3, placement.inconsistency_final.rotation_deg,
+          placement.inconsistency_final.translation_m * 1e3);
   }
 
   const SteadyTime start = steady_now();
@@ -182,13 +191,15 @@ void run_recon_integrate(const ReconIntegrateArguments& a) {
   ply.comments.push_back(fmt::format("panoscan recon integrate: {} panoramas, {}", n, to_string(options.method)));
   write_ply_point_cloud(a.out, result.cloud, ply);
   if (!a.placement_out.empty()) {
-    if (!placement_record) placement_record = nlohmann::json{{"format", "panoscan-placement"}, {"version", 1}, {"stored", true}};
+    if (!placement_record)
+      placement_record = nlohmann::json{{"format", "panoscan-placement"}, {"version", 1}, {"stored", true}};
     write_file_atomic(a.placement_out, placement_record->dump(2) + "\n");
   }
-  std::cout << fmt::format("integrated {} panoramas ({}): {} pixels, {} mutual pairs, {} groups of {} pixels -> {} "
-                           "points{}; {:.1f} s; wrote {}\n",
-                           n, to_string(options.method), result.input_points, result.mutual_pairs, result.groups,
-                           result.grouped_points, result.cloud.size(), graph_report, seconds, a.out);
+  std::cout << fmt::format(
+      "integrated {} panoramas ({}): {} pixels, {} mutual pairs, {} groups of {} pixels -> {} "
+      "points{}; {:.1f} s; wrote {}\n",
+      n, to_string(options.method), result.input_points, result.mutual_pairs, result.groups, result.grouped_points,
+      result.cloud.size(), graph_report, seconds, a.out);
 }
 
 }  // namespace panoscan::app

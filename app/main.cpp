@@ -68,7 +68,8 @@ int main(int argc, char** argv) {
   CLI::App* scene_cmd = app.add_subcommand("scene", "scenes: list or export the built-in ones, generate seeded rooms");
   scene_cmd->require_subcommand(1);
   CLI::App* scene_list = scene_cmd->add_subcommand("list", "list built-in scenes and their scanning positions");
-  CLI::App* scene_export = scene_cmd->add_subcommand("export", "write a scene as OBJ+MTL+PNG, ground-truth PLY, positions");
+  CLI::App* scene_export =
+      scene_cmd->add_subcommand("export", "write a scene as OBJ+MTL+PNG, ground-truth PLY, positions");
   SceneExportArguments export_args;
   scene_export->add_option("--scene", export_args.scene, "built-in scene name or a mesh file")->required();
   scene_export->add_option("--out", export_args.out, "output directory")->required();
@@ -94,8 +95,8 @@ int main(int argc, char** argv) {
 
   // demo
   DemoArguments demo_args;
-  CLI::App* demo_cmd = app.add_subcommand(
-      "demo", "the main job: simulate office SO-1 and SO-3, reconstruct them, print the RMSE table");
+  CLI::App* demo_cmd =
+      app.add_subcommand("demo", "the main job: simulate office SO-1 and SO-3, reconstruct them, print the RMSE table");
   demo_cmd->add_option("--out", demo_args.out, "output folder (replaced)")->capture_default_str();
   demo_cmd->add_option("--threads", demo_args.threads, "worker threads (0 = all cores)");
 
@@ -118,8 +119,10 @@ int main(int argc, char** argv) {
   CLI::App* eval_cmd = app.add_subcommand("eval", "evaluate against ground truth: clouds against meshes, trajectories");
   eval_cmd->require_subcommand(1);
   EvalCloudArguments cloud_args;
-  CLI::App* eval_cloud = eval_cmd->add_subcommand("cloud", "exact distances of a point cloud (PLY) to the ground-truth mesh");
-  eval_cloud->add_option("--cloud", cloud_args.cloud, "reconstructed cloud (PLY; a mesh's vertices also work)")->required();
+  CLI::App* eval_cloud =
+      eval_cmd->add_subcommand("cloud", "exact distances of a point cloud (PLY) to the ground-truth mesh");
+  eval_cloud->add_option("--cloud", cloud_args.cloud, "reconstructed cloud (PLY; a mesh's vertices also work)")
+      ->required();
   eval_cloud->add_option("--mesh", cloud_args.mesh, "ground-truth mesh (PLY)");
   eval_cloud->add_option("--scan", cloud_args.scan,
                          "a simulated scan: mesh from groundtruth/mesh.ply, viewpoints from groundtruth/cam*.txt");
@@ -151,9 +154,11 @@ int main(int argc, char** argv) {
   CLI::App* recon_cmd = app.add_subcommand("recon", "reconstruction: track, panorama, register, integrate, scene");
   recon_cmd->require_subcommand(1);
   ReconTrackArguments track_args;
-  CLI::App* recon_track = recon_cmd->add_subcommand("track", "joint tracking of the unsynchronized cameras (paper 4.1)");
+  CLI::App* recon_track =
+      recon_cmd->add_subcommand("track", "joint tracking of the unsynchronized cameras (paper 4.1)");
   recon_track->add_option("--scan", track_args.scan, "scan directory")->required();
-  recon_track->add_option("--out", track_args.out, "output folder: camK.txt, rig_estimate.json, tracking_stats.json")->required();
+  recon_track->add_option("--out", track_args.out, "output folder: camK.txt, rig_estimate.json, tracking_stats.json")
+      ->required();
   recon_track->add_option("--mode", track_args.mode, "full (default), ba-only, single-camera, fixed-extrinsics");
   recon_track->add_option("--config", track_args.config_file, "YAML/JSON config (keys track.*, frontend.*)");
   recon_track->add_option("--set", track_args.overrides, "override a config key (repeatable)");
@@ -165,7 +170,8 @@ int main(int argc, char** argv) {
   ReconPanoramaArguments pano_args;
   CLI::App* recon_pano = recon_cmd->add_subcommand("panorama", "build one RGB-D panorama with uncertainty (paper 4.2)");
   recon_pano->add_option("--scan", pano_args.scan, "scan directory")->required();
-  recon_pano->add_option("--poses", pano_args.poses, "ground-truth, tracked, or a folder from recon track")->capture_default_str();
+  recon_pano->add_option("--poses", pano_args.poses, "ground-truth, tracked, or a folder from recon track")
+      ->capture_default_str();
   recon_pano->add_option("--out", pano_args.out, "output panorama folder")->required();
   recon_pano->add_option("--method", pano_args.method, "ave, tv, tv-radial, tsa (default), tp");
   recon_pano->add_option("--height", pano_args.height, "panorama height H (width 2H)");
@@ -190,11 +196,13 @@ int main(int argc, char** argv) {
   ReconRegisterArguments register_args;
   CLI::App* recon_register = recon_cmd->add_subcommand(
       "register", "register two panoramas: ORB + RANSAC guess, then GICP with the measured variance (paper 5.1)");
-  recon_register->add_option("--source", register_args.source, "panorama folder to move (from recon panorama)")->required();
+  recon_register->add_option("--source", register_args.source, "panorama folder to move (from recon panorama)")
+      ->required();
   recon_register->add_option("--target", register_args.target, "panorama folder it is registered to")->required();
   recon_register->add_option("--method", register_args.method,
                              "gicp-ours (default), gicp-def, gicp, anisotropic, p2plane-curv, p2plane, p2point");
-  recon_register->add_option("--initial", register_args.initial, "initial target_from_source (pose JSON) instead of ORB");
+  recon_register->add_option("--initial", register_args.initial,
+                             "initial target_from_source (pose JSON) instead of ORB");
   recon_register->add_option("--out", register_args.out, "output JSON: target_from_source and diagnostics")->required();
   recon_register->add_option("--config", register_args.config_file, "YAML/JSON config (keys registration.*)");
   recon_register->add_option("--set", register_args.overrides, "override a config key (repeatable)");
@@ -212,7 +220,8 @@ int main(int argc, char** argv) {
   recon_integrate->add_option("--out", integrate_args.out, "output cloud (PLY with colour and variance)")->required();
   recon_integrate->add_option("--placement-out", integrate_args.placement_out,
                               "also write the panoramas' poses and which registrations were used (JSON)");
-  recon_integrate->add_option("--config", integrate_args.config_file, "YAML/JSON config (keys integration.*, registration.*)");
+  recon_integrate->add_option("--config", integrate_args.config_file,
+                              "YAML/JSON config (keys integration.*, registration.*)");
   recon_integrate->add_option("--set", integrate_args.overrides, "override a config key (repeatable)");
   recon_integrate->add_option("--threads", integrate_args.threads, "worker threads (0 = all cores)");
   recon_integrate->add_flag("--overwrite", integrate_args.overwrite, "replace an existing output");

@@ -33,9 +33,9 @@ Pair make_office_pair(int height) {
         const double z = view.depth.at(u, v);
         if (z <= 0) continue;
         cloud.points.push_back(pano.direction(u, v) * z);
-        cloud.measurement_covariances.push_back(equirectangular_point_covariance(
-            2 * M_PI * (u + 0.5) / pano.width(), M_PI * (v + 0.5) / pano.height, z, 0.5 * M_PI / pano.height,
-            9.49e-4 * z * z));
+        cloud.measurement_covariances.push_back(
+            equirectangular_point_covariance(2 * M_PI * (u + 0.5) / pano.width(), M_PI * (v + 0.5) / pano.height, z,
+                                             0.5 * M_PI / pano.height, 9.49e-4 * z * z));
       }
     prepare_surface(cloud, Eigen::Vector3d::Zero(), SurfaceOptions{});
     return cloud;
@@ -71,13 +71,15 @@ void BM_Register(benchmark::State& state) {
 
 void BM_RegisterOpen3dGicp(benchmark::State& state) {
   const Pair& pair = office_pair();
-  for (auto _ : state) benchmark::DoNotOptimize(register_open3d_gicp(pair.source, pair.target, pair.initial, IcpOptions{}));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(register_open3d_gicp(pair.source, pair.target, pair.initial, IcpOptions{}));
   state.counters["points"] = double(pair.source.points.size());
 }
 
 void BM_RegisterPclGicp(benchmark::State& state) {
   const Pair& pair = office_pair();
-  for (auto _ : state) benchmark::DoNotOptimize(register_pcl_gicp(pair.source, pair.target, pair.initial, IcpOptions{}));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(register_pcl_gicp(pair.source, pair.target, pair.initial, IcpOptions{}));
   state.counters["points"] = double(pair.source.points.size());
 }
 

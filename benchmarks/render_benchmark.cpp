@@ -56,7 +56,8 @@ void bare_embree(benchmark::State& state, Intersect intersect) {
         std::plus<>());
   }
   benchmark::DoNotOptimize(hits);
-  state.counters["rays_per_s"] = benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
+  state.counters["rays_per_s"] =
+      benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
 }
 
 void BM_RaysBareEmbree(benchmark::State& state) {
@@ -83,7 +84,8 @@ void BM_RaysFullRender(benchmark::State& state) {
     benchmark::DoNotOptimize(frame.depth.data.data());
     ++i;
   }
-  state.counters["rays_per_s"] = benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
+  state.counters["rays_per_s"] =
+      benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
 }
 
 // One whole scanning position (3 x ~990 frames at 640x480) written to disk.

@@ -32,9 +32,9 @@ const ScanIndex& scan_for(int width, int every) {
   options.output.every = every;
   options.seed = 3;
   options.threads = kThreads;
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("panoscan-tracking-benchmark-" + std::to_string(::getpid()) + "-" + std::to_string(width) + "-" +
-                    std::to_string(every));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("panoscan-tracking-benchmark-" + std::to_string(::getpid()) + "-" +
+                                                std::to_string(width) + "-" + std::to_string(every));
   Simulator(scene, 0, options).write_scan(dir, true);
   return scans[key] = read_scan_index(dir);
 }
@@ -78,8 +78,14 @@ void BM_Solve(benchmark::State& state) {
 
 BENCHMARK(BM_Frontend)->Args({640, 16})->Args({320, 16})->Unit(benchmark::kMillisecond)->Iterations(1);
 // Third argument: 0 = SPARSE_SCHUR (default), 1 = SPARSE_NORMAL_CHOLESKY.
-BENCHMARK(BM_Solve)->Args({640, 16, 0})->Args({320, 32, 0})->Args({320, 16, 0})->Args({320, 16, 1})->Args({320, 8, 0})
-    ->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_Solve)
+    ->Args({640, 16, 0})
+    ->Args({320, 32, 0})
+    ->Args({320, 16, 0})
+    ->Args({320, 16, 1})
+    ->Args({320, 8, 0})
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1);
 
 }  // namespace
 }  // namespace panoscan

@@ -46,10 +46,12 @@ TEST(Cli, BadInputExitsNonZeroNamingFileAndField) {
   const std::string out = (tmp / "scan").string();
   const std::string small = " --resolution 32x24 --every 300 --threads 1";
 
-  expect_failure_naming(run("sim --scene " + (tmp / "missing.obj").string() + " --out " + out + small), {"missing.obj"});
+  expect_failure_naming(run("sim --scene " + (tmp / "missing.obj").string() + " --out " + out + small),
+                        {"missing.obj"});
 
   { std::ofstream(tmp / "corrupt.obj") << "v 0 0 0\nv 1 0 0\nf 1 2 9\nthis is not an OBJ file\n"; }
-  expect_failure_naming(run("sim --scene " + (tmp / "corrupt.obj").string() + " --out " + out + small), {"corrupt.obj"});
+  expect_failure_naming(run("sim --scene " + (tmp / "corrupt.obj").string() + " --out " + out + small),
+                        {"corrupt.obj"});
 
   { std::ofstream(tmp / "negative.yaml") << "shutter:\n  fps: -30\n"; }
   expect_failure_naming(run("sim --config " + (tmp / "negative.yaml").string() + " --out " + out + small),
@@ -63,7 +65,8 @@ TEST(Cli, BadInputExitsNonZeroNamingFileAndField) {
                         {"output.every"});
   expect_failure_naming(run("sim --position 9 --out " + out + small), {"position"});
   expect_failure_naming(run("sim --noise loud --out " + out + small), {"noise.preset"});
-  expect_failure_naming(run("sim --resolution big --out " + out + small.substr(small.find(" --every"))), {"--resolution"});
+  expect_failure_naming(run("sim --resolution big --out " + out + small.substr(small.find(" --every"))),
+                        {"--resolution"});
 
   { std::ofstream(tmp / "a_file") << "x"; }
   expect_failure_naming(run("sim --out " + (tmp / "a_file" / "scan").string() + small), {"a_file"});
@@ -83,9 +86,9 @@ TEST(Cli, ReconCommandsRejectBadInputNamingTheFileOrField) {
                         {"--poses"});
   expect_failure_naming(run("recon panorama --scan " + missing + " --method blur --out " + (tmp / "p").string()),
                         {"panorama.method"});
-  expect_failure_naming(run("recon scene --scans " + missing + " --set registration.method=icp-best --out " +
-                            (tmp / "s").string()),
-                        {"registration.method"});
+  expect_failure_naming(
+      run("recon scene --scans " + missing + " --set registration.method=icp-best --out " + (tmp / "s").string()),
+      {"registration.method"});
   EXPECT_EQ(count_entries(tmp.path()), 0u);  // nothing written
 }
 
@@ -137,9 +140,9 @@ TEST(Cli, ReconTrackRefusesAnUntrustworthyTrajectoryNamingTheScanAndTheCheck) {
   const std::string text((std::istreambuf_iterator<char>(estimate)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("tracked:full:unreliable"), std::string::npos);
   // ... and what consumes tracked poses refuses the same way.
-  expect_failure_naming(run("recon panorama --scan " + quarter + " --poses tracked --height 64 --out " +
-                            (tmp / "quarter-pano").string()),
-                        {quarter, "not trustworthy", "turn:"});
+  expect_failure_naming(
+      run("recon panorama --scan " + quarter + " --poses tracked --height 64 --out " + (tmp / "quarter-pano").string()),
+      {quarter, "not trustworthy", "turn:"});
 
   // A calibration 10 degrees off: the extrinsics the data ask for are far from rig.json's.
   const std::string miscalibrated = (tmp / "miscalibrated").string();
@@ -164,7 +167,8 @@ TEST(Cli, SceneTextureDensityOption) {
   EXPECT_FALSE(fs::exists(tmp / "a"));
   EXPECT_FALSE(fs::exists(tmp / "b"));
 
-  const RunResult plain = run("scene export --scene office --set scene.texture=plain --out " + (tmp / "plain").string());
+  const RunResult plain =
+      run("scene export --scene office --set scene.texture=plain --out " + (tmp / "plain").string());
   ASSERT_EQ(plain.exit_code, 0) << plain.output;
   EXPECT_EQ(count_entries(tmp / "plain" / "textures"), 0u);
   const RunResult icl = run("scene export --scene office --out " + (tmp / "icl").string());
@@ -175,8 +179,8 @@ TEST(Cli, SceneTextureDensityOption) {
   EXPECT_EQ(materials.find("brick_wall"), std::string::npos);
 
   // A scene file keeps its own materials: the key is refused rather than ignored.
-  expect_failure_naming(run("sim --scene " + (tmp / "icl" / "office.obj").string() + " --set scene.texture=rich --out " +
-                            (tmp / "d").string() + small),
+  expect_failure_naming(run("sim --scene " + (tmp / "icl" / "office.obj").string() +
+                            " --set scene.texture=rich --out " + (tmp / "d").string() + small),
                         {"office.obj", "scene.texture"});
   const RunResult rich = run("sim --scene office --set scene.texture=rich --out " + (tmp / "e").string() + small);
   EXPECT_EQ(rich.exit_code, 0) << rich.output;
@@ -191,7 +195,8 @@ TEST(Cli, EvalFlatPixels) {
 // scene generate writes an ordinary scene folder that sim accepts, the same bytes for the same seed.
 TEST(Cli, SceneGenerateThenSim) {
   panoscan::testutil::TempDir tmp("cli-generate");
-  expect_failure_naming(run("scene generate --kind kitchen --seed 1 --out " + (tmp / "k").string()), {"--kind", "kitchen"});
+  expect_failure_naming(run("scene generate --kind kitchen --seed 1 --out " + (tmp / "k").string()),
+                        {"--kind", "kitchen"});
   expect_failure_naming(run("scene generate --kind office --seed 1 --texture loud --out " + (tmp / "k").string()),
                         {"scene.texture", "loud"});
   EXPECT_FALSE(fs::exists(tmp / "k"));
@@ -208,7 +213,8 @@ TEST(Cli, SceneGenerateThenSim) {
     EXPECT_EQ(sim.exit_code, 0) << sim.output;
     EXPECT_TRUE(fs::exists(tmp / (kind + "-scan") / "rig.json"));
   }
-  const RunResult again = run("scene generate --kind office --seed 3 --set scene.texture=icl --out " + (tmp / "again").string());
+  const RunResult again =
+      run("scene generate --kind office --seed 3 --set scene.texture=icl --out " + (tmp / "again").string());
   ASSERT_EQ(again.exit_code, 0) << again.output;
   for (const std::string file : {"office_seed3.obj", "office_seed3.mtl", "office_seed3.positions.json"}) {
     std::ifstream a(tmp / "office" / file, std::ios::binary), b(tmp / "again" / file, std::ios::binary);
@@ -226,7 +232,8 @@ TEST(Cli, ReconTrackOnAnUntexturedRoomIsCorrectOrRefused) {
   panoscan::testutil::TempDir tmp("cli-plain");
   const std::string scan = (tmp / "plain").string(), out = (tmp / "plain-track").string();
   ASSERT_EQ(run("sim --scene office --position SO-1 --resolution 320x240 --every 16 --threads 2 "
-                "--set scene.texture=plain --out " + scan)
+                "--set scene.texture=plain --out " +
+                scan)
                 .exit_code,
             0);
   const RunResult tracked = run("recon track --scan " + scan + " --out " + out + " --threads 2");

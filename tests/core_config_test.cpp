@@ -238,8 +238,9 @@ TEST(Config, OverrideErrorsNameTheCommandLine) {
 
 TEST(Config, AllowedStrings) {
   Config config = Config::from_string("noise:\n  preset: kinekt\n", "allowed.yaml");
-  const std::string message =
-      error_of([&] { config.get_string("noise.preset", "handa", {"handa", "handa-icl", "kinect", "none"}); });
+  const std::string message = error_of([&] {
+    config.get_string("noise.preset", "handa", {"handa", "handa-icl", "kinect", "none"});
+  });
   EXPECT_THAT(message, HasSubstr("allowed.yaml: noise.preset"));
   EXPECT_THAT(message, HasSubstr("'kinekt'"));
   EXPECT_THAT(message, HasSubstr("handa, handa-icl, kinect, none"));

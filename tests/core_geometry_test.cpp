@@ -9,7 +9,7 @@ using namespace panoscan;
 
 TEST(Geometry, So3ExpLogRoundTrip) {
   for (const Eigen::Vector3d& w : {Eigen::Vector3d(0.1, -0.2, 0.3), Eigen::Vector3d(1e-9, 0, 0),
-                                  Eigen::Vector3d(0, 3.0, 0), Eigen::Vector3d(-2.0, 1.0, 0.5)}) {
+                                   Eigen::Vector3d(0, 3.0, 0), Eigen::Vector3d(-2.0, 1.0, 0.5)}) {
     const Eigen::Matrix3d r = so3_exp(w);
     EXPECT_NEAR((r * r.transpose() - Eigen::Matrix3d::Identity()).norm(), 0.0, 1e-12);
     EXPECT_NEAR((so3_log(r) - w).norm(), 0.0, 1e-9) << w.transpose();
@@ -28,7 +28,8 @@ TEST(Geometry, FitRigidTransformRecoversAKnownPoseAndRejectsDegenerateSets) {
   ASSERT_TRUE(fit_rigid_transform(from, to, fitted));
   EXPECT_LT((fitted.matrix() - truth.matrix()).norm(), 1e-12);
   // Collinear points leave a rotation free.
-  const std::vector<Eigen::Vector3d> line = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(2, 0, 0)};
+  const std::vector<Eigen::Vector3d> line = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0),
+                                             Eigen::Vector3d(2, 0, 0)};
   EXPECT_FALSE(fit_rigid_transform(line, line, fitted));
   EXPECT_FALSE(fit_rigid_transform({from[0], from[1]}, {to[0], to[1]}, fitted));
 }

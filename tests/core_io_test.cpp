@@ -281,7 +281,8 @@ TEST_F(IoTest, TrajectoryRoundTrip) {
     // Timestamps are kept to 6 decimals (the canonical text), poses to 9.
     EXPECT_NEAR(back[i].timestamp, poses[i].timestamp, 5e-7 + 1e-12);
     EXPECT_EQ(format_timestamp(back[i].timestamp), format_timestamp(poses[i].timestamp));
-    EXPECT_LT((back[i].world_from_cam.translation() - poses[i].world_from_cam.translation()).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_LT((back[i].world_from_cam.translation() - poses[i].world_from_cam.translation()).cwiseAbs().maxCoeff(),
+              1e-9);
     // 9-decimal quaternion components re-normalised: the rotation matrix agrees to a few 1e-9.
     EXPECT_LT((back[i].world_from_cam.linear() - poses[i].world_from_cam.linear()).cwiseAbs().maxCoeff(), 3e-9);
   }
@@ -317,7 +318,8 @@ TEST_F(IoTest, TrajectoryCommentsBlankLinesAndUnnormalisedQuaternions) {
   EXPECT_EQ(poses[0].world_from_cam.translation(), Eigen::Vector3d(1, 2, 3));
   // (0, 0, 1, 1) normalised is a rotation by 90 degrees about z.
   EXPECT_NEAR(rotation_angle(poses[1].world_from_cam.linear()), M_PI / 2, 1e-12);
-  EXPECT_NEAR((poses[1].world_from_cam.linear() * Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitY()).norm(), 0, 1e-12);
+  EXPECT_NEAR((poses[1].world_from_cam.linear() * Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitY()).norm(), 0,
+              1e-12);
 }
 
 TEST_F(IoTest, EmptyTrajectoryFileHasNoPoses) {

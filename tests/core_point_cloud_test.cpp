@@ -144,9 +144,9 @@ TEST(PointCloudIo, MeshFileReadsAsItsVertices) {
 
 TEST(PointCloudIo, ZeroVerticesReadAsAnEmptyCloud) {
   testutil::TempDir dir("pcio");
-  const fs::path path =
-      write_bytes(dir / "empty.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 0\nproperty float x\n"
-                                     "property float y\nproperty float z\nend_header\n");
+  const fs::path path = write_bytes(dir / "empty.ply",
+                                    "ply\nformat binary_little_endian 1.0\nelement vertex 0\nproperty float x\n"
+                                    "property float y\nproperty float z\nend_header\n");
   EXPECT_TRUE(read_ply_point_cloud(path).empty());
 }
 
@@ -162,8 +162,8 @@ TEST(PointCloudIo, BadFilesNameTheFileAndTheField) {
       {"big_endian.ply", "ply\nformat binary_big_endian 1.0\n" + header_xyz + "end_header\n", "big"},
       {"no_vertex.ply", "ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n",
        "vertex"},
-      {"missing_z.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n",
-       "property z"},
+      {"missing_z.ply",
+       "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n", "property z"},
       {"partial_colour.ply",
        "ply\nformat ascii 1.0\n" + header_xyz + "property uchar red\nproperty uchar green\nend_header\n1 2 3 4 5\n",
        "property blue"},
@@ -174,11 +174,12 @@ TEST(PointCloudIo, BadFilesNameTheFileAndTheField) {
       {"nan.ply", "ply\nformat ascii 1.0\n" + header_xyz + "end_header\n1 nan 3\n", "vertex 0"},
       {"word.ply", "ply\nformat ascii 1.0\n" + header_xyz + "end_header\n1 two 3\n", "'two' is not a number"},
       {"short_ascii.ply", "ply\nformat ascii 1.0\n" + header_xyz + "end_header\n1 2\n", "truncated"},
-      {"short_binary.ply", "ply\nformat binary_little_endian 1.0\n" + header_xyz + "end_header\n" + std::string(8, '\0'),
-       "truncated"},
+      {"short_binary.ply",
+       "ply\nformat binary_little_endian 1.0\n" + header_xyz + "end_header\n" + std::string(8, '\0'), "truncated"},
       {"huge_count.ply",
        "ply\nformat binary_little_endian 1.0\nelement vertex 999999999999\nproperty float x\nproperty float y\n"
-       "property float z\nend_header\n" + std::string(12, '\0'),
+       "property float z\nend_header\n" +
+           std::string(12, '\0'),
        "too short"},
       {"negative_variance.ply",
        "ply\nformat ascii 1.0\n" + header_xyz + "property float variance\nend_header\n1 2 3 -1\n", "variance"},

@@ -29,8 +29,8 @@ namespace panoscan {
 namespace {
 
 namespace fs = std::filesystem;
-using ::testing::HasSubstr;
 using nlohmann::json;
+using ::testing::HasSubstr;
 
 constexpr int kWidth = 8;
 constexpr int kHeight = 6;
@@ -55,8 +55,9 @@ RigInfo make_rig(int sensors = kSensors) {
     sensor.depth_scale = 5000.0;
     sensor.nominal_fps = 30.0;
     if (s > 0) {
-      sensor.ref_from_cam = make_rigid(Eigen::Quaterniond(Eigen::AngleAxisd(2.0943951 * s + 0.01, Eigen::Vector3d(0.01, -1.0, 0.02).normalized())),
-                                       Eigen::Vector3d(0.05 * s, -0.013, 0.1 / 3.0));
+      sensor.ref_from_cam = make_rigid(
+          Eigen::Quaterniond(Eigen::AngleAxisd(2.0943951 * s + 0.01, Eigen::Vector3d(0.01, -1.0, 0.02).normalized())),
+          Eigen::Vector3d(0.05 * s, -0.013, 0.1 / 3.0));
     }
     rig.sensors.push_back(sensor);
   }
@@ -68,13 +69,15 @@ double frame_timestamp(int sensor, int frame) { return 100.0 + frame / 30.0 + 0.
 
 ImageU8 make_rgb(int sensor, int frame, int width = kWidth, int height = kHeight) {
   ImageU8 image(width, height, 3);
-  for (std::size_t i = 0; i < image.data.size(); ++i) image.data[i] = static_cast<std::uint8_t>((i * 31 + sensor * 71 + frame * 13) % 256);
+  for (std::size_t i = 0; i < image.data.size(); ++i)
+    image.data[i] = static_cast<std::uint8_t>((i * 31 + sensor * 71 + frame * 13) % 256);
   return image;
 }
 
 ImageU16 make_depth(int sensor, int frame, int width = kWidth, int height = kHeight) {
   ImageU16 image(width, height, 1);
-  for (std::size_t i = 0; i < image.data.size(); ++i) image.data[i] = static_cast<std::uint16_t>(2000 + i * 517 + sensor * 1001 + frame * 7);
+  for (std::size_t i = 0; i < image.data.size(); ++i)
+    image.data[i] = static_cast<std::uint16_t>(2000 + i * 517 + sensor * 1001 + frame * 7);
   image.data[0] = 0;  // an invalid pixel
   image.data[1] = 65535;
   return image;
@@ -114,7 +117,8 @@ class ScanTest : public ::testing::Test {
     std::vector<std::thread> threads;
     for (int s = 0; s < kSensors; ++s) {
       threads.emplace_back([&writer, s] {
-        for (int f = 0; f < kFrames; ++f) writer.write_frame(s, frame_timestamp(s, f), make_rgb(s, f), make_depth(s, f));
+        for (int f = 0; f < kFrames; ++f)
+          writer.write_frame(s, frame_timestamp(s, f), make_rgb(s, f), make_depth(s, f));
       });
     }
     for (std::thread& thread : threads) thread.join();
@@ -236,7 +240,9 @@ TEST_F(ScanTest, WrittenScanReadsBackBitExact) {
     ASSERT_EQ(truth.size(), std::size_t(kFrames));
     for (int f = 0; f < kFrames; ++f) {
       EXPECT_EQ(format_timestamp(truth[f].timestamp), format_timestamp(frame_timestamp(s, f)));
-      EXPECT_LT((truth[f].world_from_cam.matrix() - make_trajectory(s)[f].world_from_cam.matrix()).cwiseAbs().maxCoeff(), 1e-8);
+      EXPECT_LT(
+          (truth[f].world_from_cam.matrix() - make_trajectory(s)[f].world_from_cam.matrix()).cwiseAbs().maxCoeff(),
+          1e-8);
     }
     const fs::path clean = scan_dir / "groundtruth" / "depth_clean" / ("cam" + std::to_string(s)) /
                            (format_timestamp(frame_timestamp(s, 0)) + ".png");
@@ -273,10 +279,10 @@ TEST_F(ScanTest, TempPathIsInsideTheScanAndCommittedWithIt) {
 TEST(RigJson, RoundTrip) {
   const RigInfo rig = make_rig();
   const std::string text = rig_to_json(rig);
-  for (const char* field : {"\"format\"", "\"version\"", "\"description\"", "\"reference_sensor\"", "\"sensors\"",
-                            "\"name\"", "\"width\"", "\"height\"", "\"fx\"", "\"fy\"", "\"cx\"", "\"cy\"",
-                            "\"depth_scale\"", "\"nominal_fps\"", "\"ref_from_cam\"", "\"translation\"",
-                            "\"rotation_quaternion_xyzw\"", "panoscan-scan"}) {
+  for (const char* field :
+       {"\"format\"", "\"version\"", "\"description\"", "\"reference_sensor\"", "\"sensors\"", "\"name\"", "\"width\"",
+        "\"height\"", "\"fx\"", "\"fy\"", "\"cx\"", "\"cy\"", "\"depth_scale\"", "\"nominal_fps\"", "\"ref_from_cam\"",
+        "\"translation\"", "\"rotation_quaternion_xyzw\"", "panoscan-scan"}) {
     EXPECT_THAT(text, HasSubstr(field));
   }
   const RigInfo back = rig_from_json(text, "rig.json");
@@ -314,31 +320,50 @@ TEST(RigJson, BadRigFilesAreRejectedNamingTheField) {
       {"no sensors", [](json& j) { j["sensors"] = json::array(); }, "rig.json: sensors: ", "no sensors"},
       {"sensors not a list", [](json& j) { j["sensors"] = 3; }, "rig.json: sensors: ", "expected a list"},
       {"sensors missing", [](json& j) { j.erase("sensors"); }, "rig.json: sensors: ", "missing field"},
-      {"reference out of range", [](json& j) { j["reference_sensor"] = 3; }, "rig.json: reference_sensor: ", "out of range"},
-      {"reference negative", [](json& j) { j["reference_sensor"] = -1; }, "rig.json: reference_sensor: ", "out of range"},
+      {"reference out of range", [](json& j) { j["reference_sensor"] = 3; },
+       "rig.json: reference_sensor: ", "out of range"},
+      {"reference negative", [](json& j) { j["reference_sensor"] = -1; },
+       "rig.json: reference_sensor: ", "out of range"},
       {"missing fx", [](json& j) { j["sensors"][1].erase("fx"); }, "rig.json: sensors[1].fx: ", "missing field"},
       {"fx as text", [](json& j) { j["sensors"][0]["fx"] = "570"; }, "rig.json: sensors[0].fx: ", "expected a number"},
       {"fy zero", [](json& j) { j["sensors"][2]["fy"] = 0.0; }, "rig.json: sensors[2].fy: ", "positive"},
-      {"negative depth scale", [](json& j) { j["sensors"][0]["depth_scale"] = -5000; }, "rig.json: sensors[0].depth_scale: ", "positive"},
-      {"fps null", [](json& j) { j["sensors"][0]["nominal_fps"] = nullptr; }, "rig.json: sensors[0].nominal_fps: ", "expected a number"},
+      {"negative depth scale", [](json& j) { j["sensors"][0]["depth_scale"] = -5000; },
+       "rig.json: sensors[0].depth_scale: ", "positive"},
+      {"fps null", [](json& j) { j["sensors"][0]["nominal_fps"] = nullptr; },
+       "rig.json: sensors[0].nominal_fps: ", "expected a number"},
       {"width zero", [](json& j) { j["sensors"][1]["width"] = 0; }, "rig.json: sensors[1].width: ", "found 0"},
-      {"height fractional", [](json& j) { j["sensors"][1]["height"] = 6.5; }, "rig.json: sensors[1].height: ", "expected an integer"},
+      {"height fractional", [](json& j) { j["sensors"][1]["height"] = 6.5; },
+       "rig.json: sensors[1].height: ", "expected an integer"},
       {"name missing", [](json& j) { j["sensors"][0].erase("name"); }, "rig.json: sensors[0].name: ", "missing field"},
       {"duplicate name", [](json& j) { j["sensors"][2]["name"] = "cam1"; }, "rig.json: sensors[2].name: ", "twice"},
-      {"name with slash", [](json& j) { j["sensors"][2]["name"] = "../cam"; }, "rig.json: sensors[2].name: ", "not a valid sensor name"},
-      {"name groundtruth", [](json& j) { j["sensors"][2]["name"] = "groundtruth"; }, "rig.json: sensors[2].name: ", "not a valid"},
-      {"unknown sensor field", [](json& j) { j["sensors"][0]["fz"] = 1.0; }, "rig.json: sensors[0].fz: ", "unknown field"},
+      {"name with slash", [](json& j) { j["sensors"][2]["name"] = "../cam"; },
+       "rig.json: sensors[2].name: ", "not a valid sensor name"},
+      {"name groundtruth", [](json& j) { j["sensors"][2]["name"] = "groundtruth"; },
+       "rig.json: sensors[2].name: ", "not a valid"},
+      {"unknown sensor field", [](json& j) { j["sensors"][0]["fz"] = 1.0; },
+       "rig.json: sensors[0].fz: ", "unknown field"},
       {"unknown top field", [](json& j) { j["sensor"] = json::array(); }, "rig.json: sensor: ", "unknown field"},
-      {"pose missing", [](json& j) { j["sensors"][1].erase("ref_from_cam"); }, "rig.json: sensors[1].ref_from_cam: ", "missing field"},
-      {"translation short", [](json& j) { j["sensors"][1]["ref_from_cam"]["translation"] = {1.0, 2.0}; },
+      {"pose missing", [](json& j) { j["sensors"][1].erase("ref_from_cam"); },
+       "rig.json: sensors[1].ref_from_cam: ", "missing field"},
+      {"translation short",
+       [](json& j) {
+         j["sensors"][1]["ref_from_cam"]["translation"] = {1.0, 2.0};
+       },
        "rig.json: sensors[1].ref_from_cam.translation: ", "list of 3 numbers"},
       {"translation item text", [](json& j) { j["sensors"][1]["ref_from_cam"]["translation"][2] = "x"; },
        "rig.json: sensors[1].ref_from_cam.translation[2]: ", "expected a number"},
-      {"quaternion not unit", [](json& j) { j["sensors"][1]["ref_from_cam"]["rotation_quaternion_xyzw"] = {0.0, 0.0, 0.0, 2.0}; },
+      {"quaternion not unit",
+       [](json& j) {
+         j["sensors"][1]["ref_from_cam"]["rotation_quaternion_xyzw"] = {0.0, 0.0, 0.0, 2.0};
+       },
        "rig.json: sensors[1].ref_from_cam.rotation_quaternion_xyzw: ", "unit length"},
-      {"reference not identity", [](json& j) { j["sensors"][0]["ref_from_cam"]["translation"] = {0.0, 0.0, 1e-6}; },
+      {"reference not identity",
+       [](json& j) {
+         j["sensors"][0]["ref_from_cam"]["translation"] = {0.0, 0.0, 1e-6};
+       },
        "rig.json: sensors[0].ref_from_cam: ", "identity"},
-      {"reference rotated", [](json& j) { j["reference_sensor"] = 1; }, "rig.json: sensors[1].ref_from_cam: ", "identity"},
+      {"reference rotated", [](json& j) { j["reference_sensor"] = 1; },
+       "rig.json: sensors[1].ref_from_cam: ", "identity"},
   };
   const json valid = json::parse(rig_to_json(make_rig()));
   for (const RigCase& c : cases) {
@@ -646,12 +671,21 @@ TEST_F(ScanTest, InvalidRigOrCompressionIsRefusedBeforeAnythingIsCreated) {
 
 TEST(DepthUnits, MetresToUnitsRoundsAndInvalidatesBadValues) {
   ImageF32 depth(10, 1, 1);
-  depth.data = {1.0f, 0.00009f, 0.00011f, 0.0f, -1.0f, std::numeric_limits<float>::quiet_NaN(),
-                std::numeric_limits<float>::infinity(), 13.107f, 13.2f, 2.5f};
+  depth.data = {1.0f,
+                0.00009f,
+                0.00011f,
+                0.0f,
+                -1.0f,
+                std::numeric_limits<float>::quiet_NaN(),
+                std::numeric_limits<float>::infinity(),
+                13.107f,
+                13.2f,
+                2.5f};
   const ImageU16 units = depth_to_png_units(depth, 5000.0);
   EXPECT_EQ(units.width, 10);
   EXPECT_EQ(units.channels, 1);
-  const std::vector<std::uint16_t> expected = {5000, 0 /* 0.45 units rounds to 0 */, 1 /* 0.55 */, 0, 0, 0, 0, 65535, 0, 12500};
+  const std::vector<std::uint16_t> expected = {5000, 0 /* 0.45 units rounds to 0 */, 1 /* 0.55 */, 0, 0, 0, 0, 65535, 0,
+                                               12500};
   EXPECT_EQ(units.data, expected);
 
   const ImageF32 metres = depth_from_png_units(units, 5000.0);

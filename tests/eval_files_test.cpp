@@ -124,12 +124,15 @@ TEST_F(EvalFiles, BadCloudInputNamesTheFile) {
   write_ply_mesh(dir / "gt.ply", box_mesh());
   const std::string xyz = "property float x\nproperty float y\nproperty float z\n";
   const fs::path empty = write_text("empty.ply", "ply\nformat ascii 1.0\nelement vertex 0\n" + xyz + "end_header\n");
-  const fs::path nan = write_text("nan.ply", "ply\nformat ascii 1.0\nelement vertex 2\n" + xyz + "end_header\n1 2 3\n1 nan 3\n");
-  const fs::path no_z = write_text("no_z.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
-                                               "property float y\nend_header\n1 2\n");
-  const fs::path no_triangles = write_text("no_triangles.ply", "ply\nformat ascii 1.0\nelement vertex 3\n" + xyz +
-                                                                   "element face 0\nproperty list uchar int vertex_indices\n"
-                                                                   "end_header\n0 0 0\n1 0 0\n0 1 0\n");
+  const fs::path nan =
+      write_text("nan.ply", "ply\nformat ascii 1.0\nelement vertex 2\n" + xyz + "end_header\n1 2 3\n1 nan 3\n");
+  const fs::path no_z = write_text("no_z.ply",
+                                   "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+                                   "property float y\nend_header\n1 2\n");
+  const fs::path no_triangles =
+      write_text("no_triangles.ply", "ply\nformat ascii 1.0\nelement vertex 3\n" + xyz +
+                                         "element face 0\nproperty list uchar int vertex_indices\n"
+                                         "end_header\n0 0 0\n1 0 0\n0 1 0\n");
   const fs::path points_only =
       write_text("points_only.ply", "ply\nformat ascii 1.0\nelement vertex 1\n" + xyz + "end_header\n0 0 0\n");
   for (const fs::path& cloud : {empty, nan, no_z, dir / "absent.ply"}) {
@@ -149,7 +152,8 @@ TEST_F(EvalFiles, TrajectoryFiles) {
   for (int i = 0; i < 90; ++i) {
     StampedPose pose;
     pose.timestamp = 10.0 + i / 30.0;
-    pose.world_from_cam = make_rigid(so3_exp(Eigen::Vector3d(0, 0, 0.05 * i)), Eigen::Vector3d(std::cos(0.05 * i), std::sin(0.05 * i), 1.0));
+    pose.world_from_cam = make_rigid(so3_exp(Eigen::Vector3d(0, 0, 0.05 * i)),
+                                     Eigen::Vector3d(std::cos(0.05 * i), std::sin(0.05 * i), 1.0));
     gt.push_back(pose);
     pose.world_from_cam.translation().z() += (i % 2 ? -0.002 : 0.002);
     est.push_back(pose);
@@ -173,7 +177,8 @@ TEST_F(EvalFiles, TrajectoryFiles) {
   const std::string message = error_of([&] { evaluate_trajectory_files(dir / "gt.txt", dir / "shifted.txt"); });
   EXPECT_THAT(message, HasSubstr((dir / "gt.txt").string()));
   EXPECT_THAT(message, HasSubstr((dir / "shifted.txt").string()));
-  EXPECT_THAT(error_of([&] { evaluate_trajectory_files(dir / "gt.txt", dir / "absent.txt"); }), HasSubstr("absent.txt"));
+  EXPECT_THAT(error_of([&] { evaluate_trajectory_files(dir / "gt.txt", dir / "absent.txt"); }),
+              HasSubstr("absent.txt"));
   const fs::path empty = write_text("empty.txt", "# nothing\n");
   EXPECT_THAT(error_of([&] { evaluate_trajectory_files(dir / "gt.txt", empty); }), HasSubstr("empty.txt"));
 }

@@ -114,11 +114,13 @@ TriangleMesh irregular_mesh() {
     }
   }
   for (int t = 0; t < 300; ++t) {
-    const Eigen::Vector3f centre(float(random.uniform(-3, 3)), float(random.uniform(-3, 3)), float(random.uniform(-3, 3)));
+    const Eigen::Vector3f centre(float(random.uniform(-3, 3)), float(random.uniform(-3, 3)),
+                                 float(random.uniform(-3, 3)));
     const int first = int(mesh.vertices.size());
     const double size = t % 10 == 0 ? 0.002 : 0.3;  // some slivers
     for (int k = 0; k < 3; ++k)
-      mesh.vertices.push_back(centre + Eigen::Vector3f(float(random.uniform(-size, size)), float(random.uniform(-0.3, 0.3)),
+      mesh.vertices.push_back(centre + Eigen::Vector3f(float(random.uniform(-size, size)),
+                                                       float(random.uniform(-0.3, 0.3)),
                                                        float(random.uniform(-0.3, 0.3))));
     mesh.triangles.emplace_back(first, first + 1, first + 2);
   }
@@ -134,7 +136,8 @@ TEST(MeshDistance, AgreesWithBruteForceOnRandomPoints) {
   const MeshDistance distance(mesh, "irregular");
   RandomStream random(11, 0, 0, RandomPurpose::kGeneric);
   std::vector<Eigen::Vector3d> points;
-  for (int i = 0; i < 1500; ++i) points.emplace_back(random.uniform(-4, 4), random.uniform(-4, 4), random.uniform(-4, 4));
+  for (int i = 0; i < 1500; ++i)
+    points.emplace_back(random.uniform(-4, 4), random.uniform(-4, 4), random.uniform(-4, 4));
   for (int i = 0; i < 400; ++i) {  // close to the sphere, inside and outside
     const Eigen::Vector3d direction = Eigen::Vector3d(random.normal(), random.normal(), random.normal()).normalized();
     points.push_back(direction * random.uniform(0.9, 1.1));
@@ -157,7 +160,8 @@ TEST(MeshDistance, ResultDoesNotDependOnThreadCount) {
   const MeshDistance distance(mesh);
   RandomStream random(3, 0, 0, RandomPurpose::kGeneric);
   std::vector<Eigen::Vector3d> points;
-  for (int i = 0; i < 5000; ++i) points.emplace_back(random.uniform(-2, 2), random.uniform(-2, 2), random.uniform(-2, 2));
+  for (int i = 0; i < 5000; ++i)
+    points.emplace_back(random.uniform(-2, 2), random.uniform(-2, 2), random.uniform(-2, 2));
   std::vector<double> one_thread;
   tbb::task_arena(1).execute([&] { one_thread = distance.distances(points); });
   EXPECT_EQ(one_thread, distance.distances(points));

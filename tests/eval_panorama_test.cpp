@@ -83,8 +83,8 @@ TEST(PanoramaDepth, ErrorPictureAndBadInput) {
   const ImageU8 picture = read_rgb(dir / "error.png");
   ASSERT_EQ(picture.width, kW);
   EXPECT_EQ(picture.at(0, 10, 0) + picture.at(0, 10, 1) + picture.at(0, 10, 2), 0);  // no overlap: black
-  EXPECT_GT(picture.at(10, 5, 0), picture.at(10, 5, 2));     // too far: red
-  EXPECT_LT(picture.at(10, 60, 0), picture.at(10, 60, 2));   // too near: blue
+  EXPECT_GT(picture.at(10, 5, 0), picture.at(10, 5, 2));                             // too far: red
+  EXPECT_LT(picture.at(10, 60, 0), picture.at(10, 60, 2));                           // too near: blue
 
   ImageF32 small(kW / 2, kH / 2, 1, 1.f);
   try {

@@ -32,12 +32,13 @@ TEST(Registration, PoseErrorAndRegisteredCloudAccuracy) {
   // The source cloud: exact surface samples, expressed in the source frame.
   PointCloud source;
   const Rigid3d source_from_world = (world_from_target * target_from_source).inverse();
-  for (const SurfaceSample& s : sample_surface_uniform(mesh, 5000, 1)) source.positions.push_back(source_from_world * s.point);
+  for (const SurfaceSample& s : sample_surface_uniform(mesh, 5000, 1))
+    source.positions.push_back(source_from_world * s.point);
 
   CloudMetricsOptions options;
   options.completeness.enabled = false;
-  const RegistrationMetrics exact =
-      evaluate_registration(target_from_source, target_from_source, world_from_target, source, distance, options, "src");
+  const RegistrationMetrics exact = evaluate_registration(target_from_source, target_from_source, world_from_target,
+                                                          source, distance, options, "src");
   EXPECT_NEAR(exact.pose.rotation_deg, 0.0, 1e-9);
   EXPECT_LT(exact.registered.accuracy_m.rmse, 1e-9);
   EXPECT_LT(exact.with_true_pose_m.rmse, 1e-9);

@@ -102,7 +102,8 @@ TEST(ColouredCloud, ColoursDistancesAndLegendInTheFile) {
   PointCloud cloud;
   cloud.positions = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
   const std::vector<double> distances = {0.0, 0.02, 0.5};
-  const ColourLegend legend = write_error_coloured_ply(dir / "err.ply", cloud, distances, {ColourMap::kTurbo, 0.0, 0.04});
+  const ColourLegend legend =
+      write_error_coloured_ply(dir / "err.ply", cloud, distances, {ColourMap::kTurbo, 0.0, 0.04});
   EXPECT_DOUBLE_EQ(legend.max, 0.04);
   const PointCloud back = read_ply_point_cloud(dir / "err.ply");
   ASSERT_EQ(back.size(), 3u);
@@ -114,7 +115,8 @@ TEST(ColouredCloud, ColoursDistancesAndLegendInTheFile) {
   EXPECT_THAT(text, HasSubstr("comment panoscan_colour_range_m 0 0.04\n"));
   EXPECT_THAT(text, HasSubstr("property float distance\n"));
   // Automatic range: the 99th percentile.
-  const ColourLegend automatic = write_error_coloured_ply(dir / "auto.ply", cloud, distances, {ColourMap::kViridis, 0.0, 0.0});
+  const ColourLegend automatic =
+      write_error_coloured_ply(dir / "auto.ply", cloud, distances, {ColourMap::kViridis, 0.0, 0.0});
   EXPECT_NEAR(automatic.max, 0.02 + 0.98 * 0.48, 1e-12);
   EXPECT_THROW(write_error_coloured_ply(dir / "bad.ply", cloud, {0.1}), Error);
 }

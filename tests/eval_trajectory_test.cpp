@@ -95,7 +95,8 @@ TEST(Trajectory, RotationDriftGivesKnownRpe) {
   }
   const double omega = deg2rad(2.0);  // 2 deg/s
   std::vector<StampedPose> est = gt;
-  for (auto& pose : est) pose.world_from_cam = pose.world_from_cam * rotation_about(Eigen::Vector3d::UnitX(), omega * pose.timestamp);
+  for (auto& pose : est)
+    pose.world_from_cam = pose.world_from_cam * rotation_about(Eigen::Vector3d::UnitX(), omega * pose.timestamp);
   TrajectoryMetricsOptions options;
   options.rpe_delta_s = 1.0;
   const TrajectoryMetrics m = evaluate_trajectory(gt, est, options, "gt", "est");
@@ -131,15 +132,27 @@ TEST(Trajectory, BadInput) {
   const std::vector<StampedPose> gt = circle_trajectory();
   EXPECT_THROW(evaluate_trajectory(gt, {}, {}, "gt", "est"), Error);
   std::vector<StampedPose> two(gt.begin(), gt.begin() + 2);
-  EXPECT_THAT([&] {
-    try { evaluate_trajectory(gt, two, {}, "gt", "est.txt"); } catch (const Error& e) { return std::string(e.what()); }
-    return std::string();
-  }(), HasSubstr("at least 3"));
+  EXPECT_THAT(
+      [&] {
+        try {
+          evaluate_trajectory(gt, two, {}, "gt", "est.txt");
+        } catch (const Error& e) {
+          return std::string(e.what());
+        }
+        return std::string();
+      }(),
+      HasSubstr("at least 3"));
   std::vector<StampedPose> short_est(gt.begin(), gt.begin() + 10);  // 0.3 s < 1 s delta
-  EXPECT_THAT([&] {
-    try { evaluate_trajectory(gt, short_est, {}, "gt", "est.txt"); } catch (const Error& e) { return std::string(e.what()); }
-    return std::string();
-  }(), HasSubstr("est.txt"));
+  EXPECT_THAT(
+      [&] {
+        try {
+          evaluate_trajectory(gt, short_est, {}, "gt", "est.txt");
+        } catch (const Error& e) {
+          return std::string(e.what());
+        }
+        return std::string();
+      }(),
+      HasSubstr("est.txt"));
   std::vector<StampedPose> unordered = gt;
   std::swap(unordered[4], unordered[5]);
   EXPECT_THROW(evaluate_trajectory(gt, unordered, {}, "gt", "est"), Error);

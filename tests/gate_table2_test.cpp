@@ -40,7 +40,8 @@ TEST(GateTable2, FactorGraphBeatsBundleAdjustmentAndTheRigBeatsOneCamera) {
   ASSERT_FALSE(stitched.scans.empty());
   for (const std::string& scan : stitched.scans) {
     SCOPED_TRACE(scan);
-    for (const auto& row : {ba, ours, rig, rig_all, ours_all}) ASSERT_TRUE(std::isfinite(stitched.get(row, scan))) << row;
+    for (const auto& row : {ba, ours, rig, rig_all, ours_all})
+      ASSERT_TRUE(std::isfinite(stitched.get(row, scan))) << row;
     // The paper's claim (measured SO-1 / SL-1: stitched 1.97 vs 3.52, 1.71 vs 4.29 mm; ATE 4.55 vs
     // 10.30, 4.28 vs 13.99 mm).
     EXPECT_LT(stitched.get(ours, scan), 0.75 * stitched.get(ba, scan));

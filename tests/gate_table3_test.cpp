@@ -1,7 +1,7 @@
 // Gate of Table 3 (paper §6.2): on each quick-size scan (SO-1, SL-1; ground-truth poses) the
 // Eq. 5 solvers with a smoothness term (TV-L1, TSA-L1) beat averaging in the panorama ("ERP Ave."),
-// and the TSDF volume and ray-cast surfels, and every row stays under a ceiling set from the measured values with a margin. Checked to fail
-// with the smoothness term switched off (lambda_b = 0: the L1 solutions become the per-pixel
+// and the TSDF volume and ray-cast surfels, and every row stays under a ceiling set from the measured values with a
+// margin. Checked to fail with the smoothness term switched off (lambda_b = 0: the L1 solutions become the per-pixel
 // medians, SO-1 4.44 mm and SL-1 4.13 mm, above the TV/TSA ceilings, and the ratio check fails).
 // The ordering check alone would not notice that: the medians beat averaging too.
 #include <gtest/gtest.h>
@@ -54,16 +54,16 @@ TEST(GateTable3, Ceilings) {
   };
   for (const Ceiling& c : std::initializer_list<Ceiling>{
            // Measured 2026-11-24 (quick, 2 threads): SO-1 / SL-1.
-           {"ERP Ave.", "SO-1", 19.0},            // 16.95
-           {"ERP Ave.", "SL-1", 10.0},            // 8.59
-           {"ERP TV-L1", "SO-1", 3.9},            // 3.20
-           {"ERP TV-L1", "SL-1", 3.8},            // 3.09
-           {"ERP TSA-L1", "SO-1", 4.2},           // 3.48
-           {"ERP TSA-L1", "SL-1", 4.0},           // 3.33
-           {"ERP TP-L1", "SO-1", 5.7},            // 4.69
-           {"ERP TP-L1", "SL-1", 5.5},            // 4.55
-           {"ERP TV-L1 (radial)", "SO-1", 3.9},   // 3.22
-           {"ERP TV-L1 (radial)", "SL-1", 3.8},   // 3.09
+           {"ERP Ave.", "SO-1", 19.0},           // 16.95
+           {"ERP Ave.", "SL-1", 10.0},           // 8.59
+           {"ERP TV-L1", "SO-1", 3.9},           // 3.20
+           {"ERP TV-L1", "SL-1", 3.8},           // 3.09
+           {"ERP TSA-L1", "SO-1", 4.2},          // 3.48
+           {"ERP TSA-L1", "SL-1", 4.0},          // 3.33
+           {"ERP TP-L1", "SO-1", 5.7},           // 4.69
+           {"ERP TP-L1", "SL-1", 5.5},           // 4.55
+           {"ERP TV-L1 (radial)", "SO-1", 3.9},  // 3.22
+           {"ERP TV-L1 (radial)", "SL-1", 3.8},  // 3.09
        }) {
     const double value = t.get(c.row, c.scan);
     EXPECT_TRUE(std::isfinite(value)) << c.row << " " << c.scan;

@@ -3,8 +3,8 @@
 // + MAP), the effect of the measured variance in MAP, and ceilings from the measured values.
 //
 // Measured (quick size, 2 threads): align only 3.023, + average 2.994, + MAP 2.951 mm RMSE (mean
-// 1.245 / 1.095 / 1.052 mm); MAP with a constant sigma_z 2.972 mm. Checked to fail with the measured variance replaced by a constant
-// (integration_cloud_options with DepthCovarianceModel::kConstant): see the report of issue 7.
+// 1.245 / 1.095 / 1.052 mm); MAP with a constant sigma_z 2.972 mm. Checked to fail with the measured variance replaced
+// by a constant (integration_cloud_options with DepthCovarianceModel::kConstant): see the report of issue 7.
 #include <gtest/gtest.h>
 
 #include <cmath>

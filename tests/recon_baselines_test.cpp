@@ -101,7 +101,7 @@ ScanIndex index_with_timestamps(const std::vector<std::vector<double>>& timestam
 TEST(Stitcher, VirtualCameraCoversTheRigsVerticalSpan) {
   const RigInfo rig = pitched_rig(640, 480, 570);
   const PinholeIntrinsics k = stitched_intrinsics(rig, StitchOptions{});
-  EXPECT_EQ(k.width, 640);   // the paper's 640x1280 for 640x480 cameras
+  EXPECT_EQ(k.width, 640);  // the paper's 640x1280 for 640x480 cameras
   EXPECT_EQ(k.height, 1280);
   EXPECT_DOUBLE_EQ(k.fx, 570);
   // Row -0.5 of the upper camera is 45 deg + atan(240 / 570) above the horizon; it maps to row -0.5.
@@ -159,7 +159,8 @@ TEST(Stitcher, NoiselessGroundTruthStitchLiesOnTheMesh) {
       for (int v = 0; v < frame.depth.height; ++v)
         for (int u = 0; u < frame.depth.width; ++u)
           if (frame.depth.at(u, v) > 0)
-            source_points.push_back(world_from_cam * scan.rig.sensors[c].intrinsics.backproject(u, v, frame.depth.at(u, v)));
+            source_points.push_back(world_from_cam *
+                                    scan.rig.sensors[c].intrinsics.backproject(u, v, frame.depth.at(u, v)));
     }
     // The three cameras fill most of the tall frame.
     std::size_t drawn = 0;
@@ -194,11 +195,13 @@ TEST(Stitcher, CalibratedStitchIsWorseWhenTheExtrinsicsArePerturbed) {
   std::vector<Eigen::Vector3d> gt_points, ex_points;
   for (std::size_t g = 0; g < groups.size(); g += 8) {
     const Rigid3d world_from_virtual = truth.world_from_cam[r][groups[g].reference_frame].world_from_cam;
-    for (const auto& p : stitched_points(stitch_group(scan, groups[g], virtual_from_cameras(scan, groups[g], &truth), k, options),
-                                         k, world_from_virtual))
+    for (const auto& p :
+         stitched_points(stitch_group(scan, groups[g], virtual_from_cameras(scan, groups[g], &truth), k, options), k,
+                         world_from_virtual))
       gt_points.push_back(p);
-    for (const auto& p : stitched_points(stitch_group(scan, groups[g], virtual_from_cameras(scan, groups[g], nullptr), k, options),
-                                         k, world_from_virtual))
+    for (const auto& p :
+         stitched_points(stitch_group(scan, groups[g], virtual_from_cameras(scan, groups[g], nullptr), k, options), k,
+                         world_from_virtual))
       ex_points.push_back(p);
   }
   const Stats gt = distance_stats(mesh, gt_points);
@@ -264,9 +267,9 @@ TEST(PrestitchedBaseline, GroundTruthStitchTrackedAndFused) {
   std::cout << "GT stitch + Open3D odometry: " << estimated.size() << " frames, mean true step " << true_step_deg
             << " deg, step rotation error median " << median_deg << " deg, max " << sorted.back() << " deg, "
             << gross_share * 100 << "% over 1 deg, " << result.odometry.failed_steps << " failed steps; TSDF rmse "
-            << odometry_tsdf.rmse * 1e3 << " mm, median " << odometry_tsdf.median * 1e3
-            << " mm; with true poses rmse " << true_pose_tsdf.rmse * 1e3 << " mm, median " << true_pose_tsdf.median * 1e3
-            << " mm; stitch " << result.stitched.seconds << " s, odometry " << result.odometry.seconds << " s, TSDF "
+            << odometry_tsdf.rmse * 1e3 << " mm, median " << odometry_tsdf.median * 1e3 << " mm; with true poses rmse "
+            << true_pose_tsdf.rmse * 1e3 << " mm, median " << true_pose_tsdf.median * 1e3 << " mm; stitch "
+            << result.stitched.seconds << " s, odometry " << result.odometry.seconds << " s, TSDF "
             << result.tsdf.integrate_seconds << " s\n";
   EXPECT_GT(true_step_deg, 3.0);
   EXPECT_LT(median_deg, 0.2);

@@ -33,7 +33,8 @@ double rmse_to_room(const PointCloud& cloud) {
 // A panorama of the room from `centre` with depth noise of std `sigma` along each ray and the
 // covariance of Eq. 9: surface (GICP, from the neighbours) + measurement (half a pixel across
 // the ray, sigma along it).
-PanoramaPoints render_points(const Renderer& renderer, const Eigen::Vector3d& centre, double sigma, std::uint64_t seed) {
+PanoramaPoints render_points(const Renderer& renderer, const Eigen::Vector3d& centre, double sigma,
+                             std::uint64_t seed) {
   const Equirectangular pano{128};
   const Rigid3d world_from_panorama = make_rigid(Eigen::Matrix3d::Identity(), centre);
   const RenderedView view = renderer.render_equirectangular(world_from_panorama, pano);
@@ -128,10 +129,11 @@ TEST(Integration, Table5OrderingAlignAverageMap) {
   PointCloud noisy_alone;
   for (const auto& p : noisy.points) noisy_alone.positions.push_back(noisy.world_from_panorama * p);
   const double rmse_noisy = rmse_to_room(noisy_alone), rmse_average = merged_rmse(average), rmse_map = merged_rmse(map);
-  std::printf("all points: align only %.2f mm, + average %.2f mm, + MAP %.2f mm; merged points: noisy panorama %.2f mm, "
-              "average %.2f mm, MAP %.2f mm (%zu groups of %zu points)\n",
-              rmse_to_room(align.cloud) * 1e3, rmse_to_room(average.cloud) * 1e3, rmse_to_room(map.cloud) * 1e3,
-              rmse_noisy * 1e3, rmse_average * 1e3, rmse_map * 1e3, map.groups, map.input_points);
+  std::printf(
+      "all points: align only %.2f mm, + average %.2f mm, + MAP %.2f mm; merged points: noisy panorama %.2f mm, "
+      "average %.2f mm, MAP %.2f mm (%zu groups of %zu points)\n",
+      rmse_to_room(align.cloud) * 1e3, rmse_to_room(average.cloud) * 1e3, rmse_to_room(map.cloud) * 1e3,
+      rmse_noisy * 1e3, rmse_average * 1e3, rmse_map * 1e3, map.groups, map.input_points);
   EXPECT_GT(map.groups, map.input_points / 10);
   EXPECT_LT(rmse_average, rmse_noisy);
   EXPECT_LT(rmse_map, 0.8 * rmse_average);
@@ -166,11 +168,10 @@ TEST(Integration, BadInputIsAClearError) {
 
 TEST(PoseGraph, RedundantNoisyEdgesImproveOnChainingThem) {
   // Four panoramas (as SO-1..4), all six pairwise registrations with errors of ~0.5 deg / 1 cm.
-  const std::vector<Rigid3d> truth = {
-      make_rigid(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0)),
-      make_rigid(so3_exp(Eigen::Vector3d(0, 0, 1.5)), Eigen::Vector3d(2.0, 1.6, 0.01)),
-      make_rigid(so3_exp(Eigen::Vector3d(0, 0, 3.1)), Eigen::Vector3d(0.0, 1.6, -0.01)),
-      make_rigid(so3_exp(Eigen::Vector3d(0, 0, -1.6)), Eigen::Vector3d(2.0, 0.0, 0.0))};
+  const std::vector<Rigid3d> truth = {make_rigid(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0)),
+                                      make_rigid(so3_exp(Eigen::Vector3d(0, 0, 1.5)), Eigen::Vector3d(2.0, 1.6, 0.01)),
+                                      make_rigid(so3_exp(Eigen::Vector3d(0, 0, 3.1)), Eigen::Vector3d(0.0, 1.6, -0.01)),
+                                      make_rigid(so3_exp(Eigen::Vector3d(0, 0, -1.6)), Eigen::Vector3d(2.0, 0.0, 0.0))};
   RandomStream rng(4, 0, 0, RandomPurpose::kGeneric);
   std::vector<PoseGraphEdge> edges;
   for (int a = 0; a < 4; ++a)

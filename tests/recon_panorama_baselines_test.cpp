@@ -46,7 +46,6 @@ ScanIndex simulate_small_office_scan(const Scene& scene, const std::filesystem::
   return read_scan_index(dir);
 }
 
-
 }  // namespace
 
 TEST(TsdfBaseline, OfficeMeshIsCloseToTheTruth) {
@@ -64,9 +63,9 @@ TEST(TsdfBaseline, OfficeMeshIsCloseToTheTruth) {
   std::vector<double> d = mesh.distances(result.vertices.positions);
   std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
   EXPECT_LT(d[d.size() / 2], 0.01);
-  std::cout << "TSDF: median " << d[d.size() / 2] * 1e3 << " mm, " << result.vertices.size() << " vertices, rmse " << rmse * 1e3 << " mm, " << result.volume_units
-            << " blocks, ~" << result.memory_bytes / 1048576.0 << " MiB, integrate " << result.integrate_seconds
-            << " s\n";
+  std::cout << "TSDF: median " << d[d.size() / 2] * 1e3 << " mm, " << result.vertices.size() << " vertices, rmse "
+            << rmse * 1e3 << " mm, " << result.volume_units << " blocks, ~" << result.memory_bytes / 1048576.0
+            << " MiB, integrate " << result.integrate_seconds << " s\n";
   EXPECT_LT(rmse, 0.05);  // 160x120 depth with Handa noise: blobby, but no gross error
   EXPECT_GT(result.memory_bytes, 0u);
 
@@ -111,4 +110,3 @@ TEST(SurfelBaseline, OfficeSurfelsAndRaycastAreCloseToTheTruth) {
   EXPECT_LT(rmse3, rmse4);
   EXPECT_LT(rmse_rc, 0.05);
 }
-

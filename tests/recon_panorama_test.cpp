@@ -91,7 +91,8 @@ const SimulatedScan& office_clean() {
   return s;
 }
 const SimulatedScan& office_noisy() {
-  static const SimulatedScan s = simulate(scenes::make_builtin_scene("office"), "office-noisy", NoisePreset::kHanda, 30);
+  static const SimulatedScan s =
+      simulate(scenes::make_builtin_scene("office"), "office-noisy", NoisePreset::kHanda, 30);
   return s;
 }
 // A box room: every surface is a plane (walls 1.6 - 3.3 m away).
@@ -162,8 +163,10 @@ double near_minus_far_bias(const Panorama& p, const ImageF32& truth, const std::
   int near_n = 0, far_n = 0;
   for (std::size_t i : pixels) {
     const double signed_error = double(p.depth.data[i]) - truth.data[i];
-    if (truth.data[i] < depth_median) near_sum += signed_error, ++near_n;
-    else far_sum += signed_error, ++far_n;
+    if (truth.data[i] < depth_median)
+      near_sum += signed_error, ++near_n;
+    else
+      far_sum += signed_error, ++far_n;
   }
   return near_sum / near_n - far_sum / far_n;
 }
@@ -217,12 +220,12 @@ TEST(PanoramaTerms, EverySmoothnessTermsGradientMatchesCentralDifferences) {
   RandomStream rng(7, 0, 0, RandomPurpose::kGeneric);
   for (int trial = 0; trial < 50; ++trial) {
     const depth_terms::Stencil st = random_stencil(rng, trial % 2 == 0);
-    expect_gradient_matches_differences([](const depth_terms::Stencil& s) { return depth_terms::tv_term(s, true, 1e-4); },
-                                        st, "TV (cylindrical)");
-    expect_gradient_matches_differences([](const depth_terms::Stencil& s) { return depth_terms::tv_term(s, false, 1e-4); },
-                                        st, "TV (radial)");
-    expect_gradient_matches_differences([](const depth_terms::Stencil& s) { return depth_terms::tsa_term(s, 1e-7); }, st,
-                                        "TSA (Eq. 6)");
+    expect_gradient_matches_differences(
+        [](const depth_terms::Stencil& s) { return depth_terms::tv_term(s, true, 1e-4); }, st, "TV (cylindrical)");
+    expect_gradient_matches_differences(
+        [](const depth_terms::Stencil& s) { return depth_terms::tv_term(s, false, 1e-4); }, st, "TV (radial)");
+    expect_gradient_matches_differences([](const depth_terms::Stencil& s) { return depth_terms::tsa_term(s, 1e-7); },
+                                        st, "TSA (Eq. 6)");
     expect_gradient_matches_differences([](const depth_terms::Stencil& s) { return depth_terms::tp_term(s); }, st,
                                         "TP (Eq. 7)");
   }
@@ -234,11 +237,14 @@ TEST(PanoramaTerms, DataTermGradientAndCurvatureMatchCentralDifferencesAndItsExa
   for (auto& s : samples) s.radial_m = float(2.0 + 0.01 * rng.normal());
   const double eps = 0.002;
   for (double depth : {1.95, 1.999, 2.0, 2.004, 2.05}) {
-    const auto at = [&](double d) { return depth_terms::data_term(d, samples.data(), samples.data() + samples.size(), eps); };
+    const auto at = [&](double d) {
+      return depth_terms::data_term(d, samples.data(), samples.data() + samples.size(), eps);
+    };
     const double h = 1e-6;
     const depth_terms::DataTerm t = at(depth);
     EXPECT_NEAR(t.gradient, (at(depth + h).smoothed - at(depth - h).smoothed) / (2 * h), 1e-5) << depth;
-    EXPECT_NEAR(t.curvature, (at(depth + h).gradient - at(depth - h).gradient) / (2 * h), 1e-3 * std::max(1.0, t.curvature))
+    EXPECT_NEAR(t.curvature, (at(depth + h).gradient - at(depth - h).gradient) / (2 * h),
+                1e-3 * std::max(1.0, t.curvature))
         << depth;
     double l1 = 0;
     for (const auto& s : samples) l1 += std::abs(depth - double(s.radial_m));
@@ -285,7 +291,8 @@ TEST(PanoramaWarp, CountMatchesFrameCoverage) {
   for (int u = 0; u < 256; ++u) {
     const std::size_t p = std::size_t(64) * 256 + u;
     std::vector<std::pair<int, int>> ids;
-    for (std::uint64_t k = m.offsets[p]; k < m.offsets[p + 1]; ++k) ids.push_back({m.samples[k].sensor, int(m.samples[k].frame)});
+    for (std::uint64_t k = m.offsets[p]; k < m.offsets[p + 1]; ++k)
+      ids.push_back({m.samples[k].sensor, int(m.samples[k].frame)});
     std::sort(ids.begin(), ids.end());
     frames_per_pixel.push_back(double(std::unique(ids.begin(), ids.end()) - ids.begin()));
   }
@@ -352,7 +359,8 @@ TEST(PanoramaFusion, FlatWallsTsaAndTpBeatAveragingTvRadialCurves) {
     for (int v = 0; v < height; ++v)
       for (int u = 0; u < pano.width(); ++u) {
         const std::size_t i = std::size_t(v) * pano.width() + u;
-        if (mask[i] && depth.data[i] > 0) walls[view.triangle_id.at(u, v) / 2].push_back(depth.data[i] * pano.direction(u, v));
+        if (mask[i] && depth.data[i] > 0)
+          walls[view.triangle_id.at(u, v) / 2].push_back(depth.data[i] * pano.direction(u, v));
       }
     double sum = 0;
     int n = 0;
@@ -383,8 +391,8 @@ TEST(PanoramaFusion, FlatWallsTsaAndTpBeatAveragingTvRadialCurves) {
     const double ratio = p.energy.empty() ? 0.0 : p.energy.back().data / p.energy.back().smoothness_weighted;
     std::cout << to_string(method) << " (lambda " << p.lambda << ", data/smoothness " << ratio << "): rmse "
               << err[to_string(method)] * 1e3 << " mm, median " << median(e) * 1e3 << " mm, off-plane rms "
-              << off_plane_rms(p.depth) * 1e3 << " mm, near-minus-far bias " << near_minus_far_bias(p, truth, pixels) * 1e3
-              << " mm\n";
+              << off_plane_rms(p.depth) * 1e3 << " mm, near-minus-far bias "
+              << near_minus_far_bias(p, truth, pixels) * 1e3 << " mm\n";
   }
   // At the paper's balance (data about 2-4x the smoothness) the L1 solution stays close to the
   // per-pixel medians on flat walls, and with quantised disparities (steps of 11 mm at 2 m) the
@@ -631,8 +639,9 @@ TEST(PanoramaExperiment, Balance) {
       const auto t0 = std::chrono::steady_clock::now();
       const Panorama p = fuse(m, f);
       const double sec = seconds_since(t0);
-      std::cout << name << " x" << mult << " (lambda " << p.lambda << "): rmse " << rmse_mesh(p.to_point_cloud().positions)
-                << " / " << rmse_mesh(p.to_point_cloud(true).positions) << " mm";
+      std::cout << name << " x" << mult << " (lambda " << p.lambda << "): rmse "
+                << rmse_mesh(p.to_point_cloud().positions) << " / " << rmse_mesh(p.to_point_cloud(true).positions)
+                << " mm";
       if (!p.energy.empty())
         std::cout << ", ratio " << p.energy.back().data / p.energy.back().smoothness_weighted << ", iters "
                   << p.energy.size() - 1 << ", E " << p.energy.front().total() << " -> " << p.energy.back().total();

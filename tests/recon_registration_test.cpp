@@ -34,7 +34,7 @@ void add_box(Scene& scene, Eigen::Vector3f lo, Eigen::Vector3f hi) {
 
 Scene furnished_room() {
   Scene scene = testutil::make_box_room(-2.0, 3.0, -2.5, 2.0, 2.7, Eigen::Vector3d(0, 0, 0));
-  add_box(scene, {1.0f, 0.8f, 0.0f}, {2.2f, 1.6f, 0.75f});    // table
+  add_box(scene, {1.0f, 0.8f, 0.0f}, {2.2f, 1.6f, 0.75f});     // table
   add_box(scene, {-1.8f, -2.3f, 0.0f}, {-1.2f, -0.9f, 1.9f});  // shelf
   add_box(scene, {0.6f, -1.9f, 0.0f}, {1.1f, -1.4f, 1.1f});    // cabinet
   return scene;
@@ -95,7 +95,8 @@ TEST(PointCovariance, MatchesTheNumericJacobianOfTheBackProjection) {
   jacobian.col(0) = (point(phi + h, theta, z) - point(phi - h, theta, z)) / (2 * h);
   jacobian.col(1) = (point(phi, theta + h, z) - point(phi, theta - h, z)) / (2 * h);
   jacobian.col(2) = (point(phi, theta, z + h) - point(phi, theta, z - h)) / (2 * h);
-  const Eigen::Matrix3d expected = jacobian * Eigen::Vector3d(sa * sa, sa * sa, sz * sz).asDiagonal() * jacobian.transpose();
+  const Eigen::Matrix3d expected =
+      jacobian * Eigen::Vector3d(sa * sa, sa * sa, sz * sz).asDiagonal() * jacobian.transpose();
   EXPECT_LT((equirectangular_point_covariance(phi, theta, z, sa, sz) - expected).norm(), 1e-9);
   // Along the ray the variance is sigma_z^2.
   const Eigen::Vector3d ray = point(phi, theta, 1.0);
@@ -113,7 +114,8 @@ TEST_P(EveryMethod, RecoversAKnownTransformFromAPerturbedGuess) {
   const Panorama target = make_panorama(renderer, world_from_target, 0.001, 0.001, 1);
   const Panorama source = make_panorama(renderer, world_from_source, 0.001, 0.001, 2);
   const Rigid3d truth = world_from_target.inverse() * world_from_source;
-  const Rigid3d initial = make_rigid(so3_exp(Eigen::Vector3d(0.02, -0.03, 0.05)), Eigen::Vector3d(0.06, -0.05, 0.03)) * truth;
+  const Rigid3d initial =
+      make_rigid(so3_exp(Eigen::Vector3d(0.02, -0.03, 0.05)), Eigen::Vector3d(0.06, -0.05, 0.03)) * truth;
   IcpOptions options;
   options.method = GetParam();
   const IcpResult result = register_icp(source.cloud, target.cloud, initial, options);
@@ -142,8 +144,7 @@ TEST(Registration, MeasuredVarianceBeatsPlainGicpOnHeteroscedasticNoise) {
   const Scene scene = furnished_room();
   const Renderer renderer(scene);
   const Rigid3d world_from_target = make_rigid(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.2, -0.3, 1.2));
-  const Rigid3d world_from_source =
-      make_rigid(so3_exp(Eigen::Vector3d(0.0, 0.0, 0.6)), Eigen::Vector3d(0.9, 0.3, 1.2));
+  const Rigid3d world_from_source = make_rigid(so3_exp(Eigen::Vector3d(0.0, 0.0, 0.6)), Eigen::Vector3d(0.9, 0.3, 1.2));
   const Rigid3d truth = world_from_target.inverse() * world_from_source;
   double error_gicp = 0, error_ours = 0;
   const double sigma_left = 0.002, sigma_right = 0.08;
@@ -153,10 +154,12 @@ TEST(Registration, MeasuredVarianceBeatsPlainGicpOnHeteroscedasticNoise) {
     IcpOptions options;
     options.method = IcpMethod::kGicp;
     error_gicp += (register_icp(source.cloud, target.cloud, truth, options).target_from_source.translation() -
-                   truth.translation()).norm();
+                   truth.translation())
+                      .norm();
     options.method = IcpMethod::kGicpMeasured;
     error_ours += (register_icp(source.cloud, target.cloud, truth, options).target_from_source.translation() -
-                   truth.translation()).norm();
+                   truth.translation())
+                      .norm();
   }
   std::printf("mean translation error: plain GICP %.2f mm, measured variance %.2f mm\n", error_gicp / 4 * 1e3,
               error_ours / 4 * 1e3);
@@ -166,8 +169,10 @@ TEST(Registration, MeasuredVarianceBeatsPlainGicpOnHeteroscedasticNoise) {
 TEST(Registration, SameResultWithOneAndTwoThreads) {
   const Scene scene = furnished_room();
   const Renderer renderer(scene);
-  const Panorama target = make_panorama(renderer, make_rigid(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.2, -0.3, 1.2)), 0.003, 0.003, 1);
-  const Panorama source = make_panorama(renderer, make_rigid(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.7, 0.1, 1.2)), 0.003, 0.003, 2);
+  const Panorama target = make_panorama(
+      renderer, make_rigid(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.2, -0.3, 1.2)), 0.003, 0.003, 1);
+  const Panorama source =
+      make_panorama(renderer, make_rigid(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.7, 0.1, 1.2)), 0.003, 0.003, 2);
   IcpOptions options;
   options.threads = 1;
   const IcpResult one = register_icp(source.cloud, target.cloud, Rigid3d::Identity(), options);
@@ -216,8 +221,8 @@ TEST(FeatureAlignment, OrbGuessThenIcpRecoversTheTransformBetweenTwoOfficePositi
   const RenderedView source_view = renderer.render_equirectangular(world_from_source, pano);
   const Rigid3d truth = world_from_target.inverse() * world_from_source;
 
-  const FeatureAlignment guess = align_panorama_features({&source_view.rgb, &source_view.depth},
-                                                         {&target_view.rgb, &target_view.depth}, FeatureAlignmentOptions{});
+  const FeatureAlignment guess = align_panorama_features(
+      {&source_view.rgb, &source_view.depth}, {&target_view.rgb, &target_view.depth}, FeatureAlignmentOptions{});
   ASSERT_TRUE(guess.success) << guess.failure;
   std::printf("ORB: %d/%d features, %d matches, %d inliers; guess error %.3f deg, %.1f mm\n", guess.source_features,
               guess.target_features, guess.matches, guess.inliers, rotation_error_deg(guess.target_from_source, truth),
@@ -244,8 +249,9 @@ TEST(FeatureAlignment, OrbGuessThenIcpRecoversTheTransformBetweenTwoOfficePositi
   // finds walls everywhere (fitness 0.50 against 0.76 at the truth): the feature matches, not
   // the geometry, expose it.
   EXPECT_GE(count_consistent_matches(guess, refined.target_from_source, 0.05), guess.inliers * 9 / 10);
-  const Rigid3d bad = make_rigid(Eigen::Matrix3d(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ())),
-                                 Eigen::Vector3d::Zero()) * truth;
+  const Rigid3d bad =
+      make_rigid(Eigen::Matrix3d(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ())), Eigen::Vector3d::Zero()) *
+      truth;
   const IcpResult wrong = register_icp(source, target, bad, options);
   EXPECT_GT(rotation_error_deg(wrong.target_from_source, truth), 45.0);  // the wrong minimum
   EXPECT_LT(count_consistent_matches(guess, wrong.target_from_source, 0.05), guess.inliers / 5);
@@ -269,7 +275,8 @@ TEST(OutsideReference, Open3dAndPclGicpAgreeOnTheSameClouds) {
   const Panorama target = make_panorama(renderer, world_from_target, 0.002, 0.002, 1);
   const Panorama source = make_panorama(renderer, world_from_source, 0.002, 0.002, 2);
   const Rigid3d truth = world_from_target.inverse() * world_from_source;
-  const Rigid3d initial = make_rigid(so3_exp(Eigen::Vector3d(0.0, 0.01, 0.03)), Eigen::Vector3d(0.03, -0.02, 0.01)) * truth;
+  const Rigid3d initial =
+      make_rigid(so3_exp(Eigen::Vector3d(0.0, 0.01, 0.03)), Eigen::Vector3d(0.03, -0.02, 0.01)) * truth;
   const IcpResult reference = register_open3d_gicp(source.cloud, target.cloud, initial, IcpOptions{});
   EXPECT_LT(rotation_error_deg(reference.target_from_source, truth), 0.1);
   EXPECT_LT((reference.target_from_source.translation() - truth.translation()).norm(), 0.005);

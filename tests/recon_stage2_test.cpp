@@ -71,7 +71,8 @@ TEST(Stage2, RegistersTwoOfficePanoramasAndRejectsAWrongGivenPose) {
   PairRegistrationOptions options;
   options.cloud.pixel_stride = 2;
   const PairRegistration result = register_panorama_pair(source, target, options, nullptr, "SO-3", "SO-1");
-  const double rotation_error = rad2deg(rotation_angle(result.target_from_source.linear().transpose() * truth.linear()));
+  const double rotation_error =
+      rad2deg(rotation_angle(result.target_from_source.linear().transpose() * truth.linear()));
   const double translation_error = (result.target_from_source.translation() - truth.translation()).norm();
   std::printf("SO-3 -> SO-1: %d ORB inliers, %d consistent; error %.3f deg, %.1f mm after %d GICP iterations\n",
               result.guess.inliers, result.consistent_matches, rotation_error, translation_error * 1e3,
@@ -80,8 +81,9 @@ TEST(Stage2, RegistersTwoOfficePanoramasAndRejectsAWrongGivenPose) {
   EXPECT_LT(translation_error, 0.005);
 
   // A given initial pose that is 90 degrees wrong fails loudly.
-  const Rigid3d wrong = make_rigid(Eigen::Matrix3d(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ())),
-                                   Eigen::Vector3d::Zero()) * truth;
+  const Rigid3d wrong =
+      make_rigid(Eigen::Matrix3d(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ())), Eigen::Vector3d::Zero()) *
+      truth;
   try {
     register_panorama_pair(source, target, options, &wrong, "SO-3", "SO-1");
     FAIL() << "a 90 degree wrong initial pose was accepted";
@@ -150,13 +152,14 @@ TEST(Stage2, PoseGraphOverFourOfficePositionsLowersTheWorstInconsistency) {
   }
   double worst_error_mm = 0;
   for (std::size_t k = 0; k < panoramas.size(); ++k)
-    worst_error_mm = std::max(worst_error_mm,
-                              (result.world_from_panorama[k].translation() - panoramas[k].world_from_pano.translation()).norm() * 1e3);
-  std::printf("4 office positions: %zu registrations, worst inconsistency %.3f mm / %.4f deg chained -> %.3f mm / %.4f "
-              "deg after the pose graph; worst position error %.2f mm\n",
-              result.edges.size(), result.inconsistency_chained.translation_m * 1e3,
-              result.inconsistency_chained.rotation_deg, result.inconsistency_final.translation_m * 1e3,
-              result.inconsistency_final.rotation_deg, worst_error_mm);
+    worst_error_mm = std::max(
+        worst_error_mm,
+        (result.world_from_panorama[k].translation() - panoramas[k].world_from_pano.translation()).norm() * 1e3);
+  std::printf(
+      "4 office positions: %zu registrations, worst inconsistency %.3f mm / %.4f deg chained -> %.3f mm / %.4f "
+      "deg after the pose graph; worst position error %.2f mm\n",
+      result.edges.size(), result.inconsistency_chained.translation_m * 1e3, result.inconsistency_chained.rotation_deg,
+      result.inconsistency_final.translation_m * 1e3, result.inconsistency_final.rotation_deg, worst_error_mm);
   // The loop SO-1, SO-3, SO-2, SO-4 and back (4 edges) at least; the diagonal pairs can register 180
   // degrees wrong in the symmetric office (features and geometry both agree) and are dropped.
   EXPECT_TRUE(result.pose_graph_used);
@@ -199,14 +202,13 @@ struct OfficePanoramaFolders {
 TEST(Stage2Commands, RegisterThenIntegrateTwoPanoramaFolders) {
   OfficePanoramaFolders f;
   const fs::path registration = f.tmp / "a-to-b.json";
-  const RunResult r = run_panoscan("recon register --source " + f.a.string() + " --target " + f.b.string() +
-                                   " --out " + registration.string() + " --threads 2");
+  const RunResult r = run_panoscan("recon register --source " + f.a.string() + " --target " + f.b.string() + " --out " +
+                                   registration.string() + " --threads 2");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   nlohmann::json j;
   std::ifstream(registration) >> j;
   const Rigid3d estimate = pose_from_json(j["target_from_source"], registration.string(), "target_from_source");
-  const double rotation_error =
-      rad2deg(rotation_angle(estimate.linear().transpose() * f.b_from_a_truth.linear()));
+  const double rotation_error = rad2deg(rotation_angle(estimate.linear().transpose() * f.b_from_a_truth.linear()));
   const double translation_error = (estimate.translation() - f.b_from_a_truth.translation()).norm();
   std::printf("recon register: %.4f deg, %.2f mm; %s", rotation_error, translation_error * 1e3, r.output.c_str());
   EXPECT_LT(rotation_error, 0.1);
@@ -285,8 +287,8 @@ TEST(Stage2Commands, IntegrateAndSceneUseOnePlacementRule) {
   EXPECT_EQ(placement.at("dropped").size(), result.placement.dropped.size());
   EXPECT_EQ(placement.at("pose_graph_used").get<bool>(), result.pose_graph_used);
   for (std::size_t k = 0; k < 3; ++k) {
-    const Rigid3d from_integrate = pose_from_json(placement["panoramas"][k]["world_from_panorama"], placement_file.string(),
-                                                  "world_from_panorama");
+    const Rigid3d from_integrate = pose_from_json(placement["panoramas"][k]["world_from_panorama"],
+                                                  placement_file.string(), "world_from_panorama");
     EXPECT_LT((from_integrate.matrix() - result.world_from_panorama[k].matrix()).norm(), 1e-9) << names[k];
     // ... and both near the truth.
     EXPECT_LT((result.world_from_panorama[k].translation() - panoramas[k].world_from_pano.translation()).norm(), 0.005)
@@ -324,25 +326,23 @@ TEST(Stage2Commands, BadInputIsAClearErrorAndWritesNothing) {
   // one, the panoramas do not overlap there.
   {
     const Scene living = scenes::make_builtin_scene("living_room");
-    const Rigid3d pose = make_rigid(Eigen::Matrix3d::Identity(),
-                                    living.positions[0].floor_point + Eigen::Vector3d(0, 0, 1.1));
+    const Rigid3d pose =
+        make_rigid(Eigen::Matrix3d::Identity(), living.positions[0].floor_point + Eigen::Vector3d(0, 0, 1.1));
     write_panorama(f.tmp / "living", synthetic_panorama(Renderer(living), pose, 256, 14), false);
   }
   const std::string other = " --source " + (f.tmp / "living").string() + " --target " + f.b.string();
   expect_failure_naming(run_panoscan("recon register" + other + " --out " + out), {"living", "initial"});
-  {
-    std::ofstream(f.tmp / "identity.json") << pose_to_json(Rigid3d::Identity()).dump();
-  }
-  const RunResult forced = run_panoscan("recon register" + other + " --initial " + (f.tmp / "identity.json").string() +
-                                        " --out " + out);
+  { std::ofstream(f.tmp / "identity.json") << pose_to_json(Rigid3d::Identity()).dump(); }
+  const RunResult forced =
+      run_panoscan("recon register" + other + " --initial " + (f.tmp / "identity.json").string() + " --out " + out);
   expect_failure_naming(forced, {"living", "registration"});
   std::printf("non-overlapping with a given pose: %s", forced.output.c_str());
 
   // Bad files and fields.
   { std::ofstream(f.tmp / "broken.json") << "{ not json"; }
-  expect_failure_naming(run_panoscan("recon register" + pair + " --initial " + (f.tmp / "broken.json").string() +
-                                     " --out " + out),
-                        {"broken.json"});
+  expect_failure_naming(
+      run_panoscan("recon register" + pair + " --initial " + (f.tmp / "broken.json").string() + " --out " + out),
+      {"broken.json"});
   expect_failure_naming(run_panoscan("recon register" + pair + " --method icp-best --out " + out),
                         {"registration.method"});
   expect_failure_naming(run_panoscan("recon register --source " + (f.tmp / "missing").string() + " --target " +
@@ -361,9 +361,9 @@ TEST(Stage2Commands, BadInputIsAClearErrorAndWritesNothing) {
     j["target_from_source"] = pose_to_json(Rigid3d::Identity());
     std::ofstream(f.tmp / "stray.json") << j.dump();
   }
-  expect_failure_naming(run_panoscan("recon integrate" + both + " --poses " + (f.tmp / "stray.json").string() +
-                                     " --out " + cloud),
-                        {"stray.json", "source"});
+  expect_failure_naming(
+      run_panoscan("recon integrate" + both + " --poses " + (f.tmp / "stray.json").string() + " --out " + cloud),
+      {"stray.json", "source"});
   expect_failure_naming(run_panoscan("recon integrate" + both + " --poses stored --method median --out " + cloud),
                         {"integration.method"});
   EXPECT_FALSE(fs::exists(cloud));

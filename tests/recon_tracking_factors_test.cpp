@@ -104,7 +104,9 @@ void expect_jacobians_match_numeric(ceres::CostFunction* cost_raw, const std::ve
     }
     const double scale = 1.0 + numeric.cwiseAbs().maxCoeff();
     EXPECT_LE((analytic - numeric).cwiseAbs().maxCoeff(), 1e-6 * scale)
-        << name << ", parameter block " << k << "\nanalytic\n" << analytic << "\nnumeric\n" << numeric;
+        << name << ", parameter block " << k << "\nanalytic\n"
+        << analytic << "\nnumeric\n"
+        << numeric;
   }
 }
 
@@ -132,17 +134,32 @@ TEST(TrackingFactors, EveryFactorsJacobianMatchesNumericDifferentiation) {
     const Rigid3d cam_a = model_pose(axis, alpha_a, rig, extr_a) * random_pose(rng, 0.01, 0.005);
     const Rigid3d cam_b = model_pose(axis, alpha_b, rig, extr_b) * random_pose(rng, 0.01, 0.005);
     expect_jacobians_match_numeric(tf::RegularisationCost::create(0.005, 0.0087),
-                                   {quaternion_block(cam_a), translation_block(cam_a), {{alpha_a}, false},
-                                    quaternion_block(axis), translation_block(axis), quaternion_block(rig),
-                                    translation_block(rig), quaternion_block(extr_a), translation_block(extr_a)},
+                                   {quaternion_block(cam_a),
+                                    translation_block(cam_a),
+                                    {{alpha_a}, false},
+                                    quaternion_block(axis),
+                                    translation_block(axis),
+                                    quaternion_block(rig),
+                                    translation_block(rig),
+                                    quaternion_block(extr_a),
+                                    translation_block(extr_a)},
                                    "pose regularisation (Eq. 2)");
-    expect_jacobians_match_numeric(
-        tf::SharedWobbleCost::create(0.003, 0.005),
-        {quaternion_block(cam_a), translation_block(cam_a), {{alpha_a}, false}, quaternion_block(extr_a),
-         translation_block(extr_a), quaternion_block(cam_b), translation_block(cam_b), {{alpha_b}, false},
-         quaternion_block(extr_b), translation_block(extr_b), quaternion_block(axis), translation_block(axis),
-         quaternion_block(rig), translation_block(rig)},
-        "shared wobble");
+    expect_jacobians_match_numeric(tf::SharedWobbleCost::create(0.003, 0.005),
+                                   {quaternion_block(cam_a),
+                                    translation_block(cam_a),
+                                    {{alpha_a}, false},
+                                    quaternion_block(extr_a),
+                                    translation_block(extr_a),
+                                    quaternion_block(cam_b),
+                                    translation_block(cam_b),
+                                    {{alpha_b}, false},
+                                    quaternion_block(extr_b),
+                                    translation_block(extr_b),
+                                    quaternion_block(axis),
+                                    translation_block(axis),
+                                    quaternion_block(rig),
+                                    translation_block(rig)},
+                                   "shared wobble");
     expect_jacobians_match_numeric(tf::VelocityCost::create(0.0, 0.52, 1.07, 0.0087), {a(), a(), a()},
                                    "velocity smoothness (Eq. 3)");
     expect_jacobians_match_numeric(tf::SameTimeCost::create(1e-3), {a(), a()}, "same time");
@@ -169,19 +186,22 @@ TEST(TrackingFactors, ObservationAndRegularisationResidualsVanishAtAConsistentSt
       tf::ObservationCost::create(u, v, in_camera.z(), fx, fy, cx, cy, 1.0, 0.004));
   const Eigen::Quaterniond q(world_from_cam.linear());
   const double qc[4] = {q.w(), q.x(), q.y(), q.z()};
-  const double tc[3] = {world_from_cam.translation().x(), world_from_cam.translation().y(), world_from_cam.translation().z()};
+  const double tc[3] = {world_from_cam.translation().x(), world_from_cam.translation().y(),
+                        world_from_cam.translation().z()};
   const double y[3] = {landmark.x(), landmark.y(), landmark.z()};
   const double* parameters[] = {qc, tc, y};
   double residual[6];
   ASSERT_TRUE(observation->Evaluate(parameters, residual, nullptr));
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(residual[k], 0.0, 1e-9);
   // ... and a depth 1 cm off gives (d - Z) / sigma_d in the third component.
-  std::unique_ptr<ceres::CostFunction> off(tf::ObservationCost::create(u, v, in_camera.z() + 0.01, fx, fy, cx, cy, 1.0, 0.004));
+  std::unique_ptr<ceres::CostFunction> off(
+      tf::ObservationCost::create(u, v, in_camera.z() + 0.01, fx, fy, cx, cy, 1.0, 0.004));
   ASSERT_TRUE(off->Evaluate(parameters, residual, nullptr));
   EXPECT_NEAR(residual[2], 0.01 / 0.004, 1e-9);
 
   // Eq. 2: the camera exactly at T_u R(alpha) T_u^-1 T_r T_c.
-  const Rigid3d world_from_axis = make_rigid(so3_exp(Eigen::Vector3d(0.02, -0.01, 0.3)), Eigen::Vector3d(0.1, 0.0, 1.0));
+  const Rigid3d world_from_axis =
+      make_rigid(so3_exp(Eigen::Vector3d(0.02, -0.01, 0.3)), Eigen::Vector3d(0.1, 0.0, 1.0));
   const Rigid3d world_from_rig = make_rigid(so3_exp(Eigen::Vector3d(0.0, 0.01, 0.0)), Eigen::Vector3d(0.0, 0.01, 0.0));
   const Rigid3d ref_from_cam = make_rigid(so3_exp(Eigen::Vector3d(0.78, 0, 0)), Eigen::Vector3d(0, 0.06, 0.02));
   const double alpha = 1.3;

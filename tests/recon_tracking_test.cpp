@@ -54,7 +54,7 @@ TrackingOptions test_tracking_options() {
 }
 
 struct Figures {
-  double ate_m = 0;             // mean over cameras of the per-camera ATE RMSE
+  double ate_m = 0;  // mean over cameras of the per-camera ATE RMSE
   eval::AxisError axis;
   std::vector<eval::PoseError> extrinsics;
 };
@@ -94,16 +94,18 @@ class TrackingTest : public ::testing::Test {
     // The estimate lives in the frame of the reference camera's first frame. The ATE alignment
     // (positions only) is ill-conditioned in tilt, since the camera centres lie on a circle of
     // about 10 cm; the pose alignment uses the orientations of every frame as well.
-    figures.axis = eval::axis_error(eval::axis_line(pose_alignment(result.trajectory) * result.trajectory.world_from_axis),
-                                    eval::axis_line(truth_->world_from_axis));
+    figures.axis =
+        eval::axis_error(eval::axis_line(pose_alignment(result.trajectory) * result.trajectory.world_from_axis),
+                         eval::axis_line(truth_->world_from_axis));
     figures.extrinsics = eval::extrinsics_errors(result.trajectory.ref_from_cam, truth_->ref_from_cam);
-    std::printf("%-22s ATE %.2f mm, axis %.3f deg %.2f mm, extrinsics cam0 %.3f deg %.2f mm cam2 %.3f deg %.2f mm, "
-                "%d iterations, cost %.4g -> %.4g, solve %.2f s, %s\n",
-                label.c_str(), 1e3 * figures.ate_m, figures.axis.angle_deg, 1e3 * figures.axis.offset_at_reference_m,
-                figures.extrinsics[0].rotation_deg, 1e3 * figures.extrinsics[0].translation_m,
-                figures.extrinsics[2].rotation_deg, 1e3 * figures.extrinsics[2].translation_m, result.stats.iterations,
-                result.stats.initial_cost, result.stats.final_cost, result.stats.solve_seconds,
-                result.stats.converged ? "converged" : result.stats.termination.c_str());
+    std::printf(
+        "%-22s ATE %.2f mm, axis %.3f deg %.2f mm, extrinsics cam0 %.3f deg %.2f mm cam2 %.3f deg %.2f mm, "
+        "%d iterations, cost %.4g -> %.4g, solve %.2f s, %s\n",
+        label.c_str(), 1e3 * figures.ate_m, figures.axis.angle_deg, 1e3 * figures.axis.offset_at_reference_m,
+        figures.extrinsics[0].rotation_deg, 1e3 * figures.extrinsics[0].translation_m,
+        figures.extrinsics[2].rotation_deg, 1e3 * figures.extrinsics[2].translation_m, result.stats.iterations,
+        result.stats.initial_cost, result.stats.final_cost, result.stats.solve_seconds,
+        result.stats.converged ? "converged" : result.stats.termination.c_str());
     return figures;
   }
 
@@ -247,7 +249,8 @@ TEST_F(TrackingTest, DeterministicAndWritesOutputs) {
   const TrackingResult b = track_with_frontend(*scan_, *frontend_, options);
   for (std::size_t s = 0; s < a.trajectory.world_from_cam.size(); ++s)
     for (std::size_t f = 0; f < a.trajectory.world_from_cam[s].size(); ++f)
-      ASSERT_EQ(a.trajectory.world_from_cam[s][f].world_from_cam.matrix(), b.trajectory.world_from_cam[s][f].world_from_cam.matrix());
+      ASSERT_EQ(a.trajectory.world_from_cam[s][f].world_from_cam.matrix(),
+                b.trajectory.world_from_cam[s][f].world_from_cam.matrix());
   write_tracking_result(dir_->path() / "out", a, scan_->rig);
   const RigTrajectory reread = read_rig_trajectory(dir_->path() / "out", *scan_);
   EXPECT_TRUE(reread.world_from_axis.isApprox(a.trajectory.world_from_axis, 1e-6));
@@ -277,7 +280,8 @@ TEST_F(TrackingTest, FramesWithoutFeaturesAreKeptWithTheRegularisingFactors) {
       const auto metrics = eval::evaluate_trajectory(truth_->world_from_cam[s], result.trajectory.world_from_cam[s],
                                                      metrics_options, "truth", label);
       for (std::size_t k = 0; k < metrics.timestamps.size(); ++k)
-        if (metrics.timestamps[k] >= scan.frames[s][kFirst].timestamp && metrics.timestamps[k] <= scan.frames[s][kLast].timestamp)
+        if (metrics.timestamps[k] >= scan.frames[s][kFirst].timestamp &&
+            metrics.timestamps[k] <= scan.frames[s][kLast].timestamp)
           worst = std::max(worst, (metrics.gt_positions[k] - metrics.est_positions_aligned[k]).norm());
     }
     std::printf("%s: worst position error in the black frames %.2f mm, %s\n", label.c_str(), 1e3 * worst,
@@ -301,11 +305,12 @@ TEST_F(TrackingTest, SelfCheckPassesACorrectTrajectoryAndCatchesCorruptedOnes) {
   ASSERT_TRUE(good.verdict.checked);
   EXPECT_TRUE(good.verdict.reliable) << good.verdict.first_failure();
   for (const char* name : {"finite", "frames", "turn", "monotone", "pairs", "loop", "residuals", "extrinsics", "axis"})
-    EXPECT_TRUE(std::any_of(good.verdict.checks.begin(), good.verdict.checks.end(),
-                            [&](const TrackingCheck& c) { return c.name == name; }))
-        << name;
+    EXPECT_TRUE(std::any_of(good.verdict.checks.begin(), good.verdict.checks.end(), [&](const TrackingCheck& c) {
+      return c.name == name;
+    })) << name;
   ASSERT_EQ(good.verdict.frames.size(), scan_->frames.size());
-  for (std::size_t s = 0; s < scan_->frames.size(); ++s) ASSERT_EQ(good.verdict.frames[s].size(), scan_->frames[s].size());
+  for (std::size_t s = 0; s < scan_->frames.size(); ++s)
+    ASSERT_EQ(good.verdict.frames[s].size(), scan_->frames[s].size());
   const nlohmann::json stats = nlohmann::json::parse(tracking_stats_json(good, scan_->rig));
   EXPECT_TRUE(stats.at("verdict").at("reliable").get<bool>());
   EXPECT_EQ(stats.at("frames").at(scan_->rig.sensors[0].name).at("confidence").size(), scan_->frames[0].size());
@@ -334,7 +339,8 @@ TEST_F(TrackingTest, SelfCheckPassesACorrectTrajectoryAndCatchesCorruptedOnes) {
   const Rigid3d extra = axis * rotation_about(Eigen::Vector3d::UnitZ(), deg2rad(40)) * axis.inverse();
   for (std::size_t s = 0; s < scan_->frames.size(); ++s)
     for (std::size_t f = scan_->frames[s].size() / 2; f < scan_->frames[s].size(); ++f) {
-      turned.trajectory.world_from_cam[s][f].world_from_cam = extra * turned.trajectory.world_from_cam[s][f].world_from_cam;
+      turned.trajectory.world_from_cam[s][f].world_from_cam =
+          extra * turned.trajectory.world_from_cam[s][f].world_from_cam;
       turned.azimuth_unwrapped_rad[s][f] += deg2rad(40);
     }
   const std::vector<std::string> turned_failures = failed(turned);
@@ -345,7 +351,8 @@ TEST_F(TrackingTest, SelfCheckPassesACorrectTrajectoryAndCatchesCorruptedOnes) {
   TrackingResult swapped = good;
   const int ref = scan_->rig.reference_sensor;
   std::swap(swapped.azimuth_unwrapped_rad[ref][10], swapped.azimuth_unwrapped_rad[ref][11]);
-  std::swap(swapped.trajectory.world_from_cam[ref][10].world_from_cam, swapped.trajectory.world_from_cam[ref][11].world_from_cam);
+  std::swap(swapped.trajectory.world_from_cam[ref][10].world_from_cam,
+            swapped.trajectory.world_from_cam[ref][11].world_from_cam);
   const std::vector<std::string> swapped_failures = failed(swapped);
   EXPECT_TRUE(contains(swapped_failures, "monotone"));
 

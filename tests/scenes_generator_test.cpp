@@ -188,7 +188,8 @@ TEST(GeneratedRoom, SameSeedSameFilesOtherSeedOtherRoom) {
   scenes::export_scene(scenes::generate_room(spec).scene, dir / "c");
   const std::string stem_a = scenes::generated_room_name(scenes::RoomSpec{scenes::RoomKind::kLivingRoom, 11, {}});
   const std::string stem_c = scenes::generated_room_name(spec);
-  EXPECT_NE(read_bytes(dir / "a" / (stem_a + "_groundtruth.ply")), read_bytes(dir / "c" / (stem_c + "_groundtruth.ply")));
+  EXPECT_NE(read_bytes(dir / "a" / (stem_a + "_groundtruth.ply")),
+            read_bytes(dir / "c" / (stem_c + "_groundtruth.ply")));
   EXPECT_NE(read_bytes(dir / "a" / (stem_a + ".positions.json")), read_bytes(dir / "c" / (stem_c + ".positions.json")));
 
   // The files load back as an ordinary scene with the same positions.

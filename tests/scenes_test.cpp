@@ -43,7 +43,8 @@ const Scene& builtin(const std::string& name, scenes::TextureDensity density = s
   static std::map<std::pair<std::string, scenes::TextureDensity>, Scene> cache;
   const auto key = std::make_pair(name, density);
   auto found = cache.find(key);
-  if (found == cache.end()) found = cache.emplace(key, scenes::make_builtin_scene(name, scenes::SceneStyle{density})).first;
+  if (found == cache.end())
+    found = cache.emplace(key, scenes::make_builtin_scene(name, scenes::SceneStyle{density})).first;
   return found->second;
 }
 const Scene& rich(const std::string& name) { return builtin(name, scenes::TextureDensity::kRich); }
@@ -140,7 +141,8 @@ TEST_P(BuiltinSceneTest, IsDeterministic) {
   ASSERT_EQ(again.textures.size(), scene.textures.size());
   for (std::size_t i = 0; i < scene.textures.size(); ++i) EXPECT_TRUE(again.textures[i].rgb == scene.textures[i].rgb);
   ASSERT_EQ(again.materials.size(), scene.materials.size());
-  for (std::size_t i = 0; i < scene.materials.size(); ++i) EXPECT_TRUE(again.materials[i].albedo == scene.materials[i].albedo);
+  for (std::size_t i = 0; i < scene.materials.size(); ++i)
+    EXPECT_TRUE(again.materials[i].albedo == scene.materials[i].albedo);
 }
 
 // The texture density changes materials only: the geometry, texture coordinates, lights and
@@ -156,7 +158,8 @@ TEST_P(BuiltinSceneTest, TextureDensityChangesOnlyMaterials) {
     std::size_t differing = 0;
     for (std::size_t t = 0; t < scene.mesh.triangles.size(); ++t)
       if (scene.materials[std::size_t(scene.mesh.triangle_material[t])].texture >= 0)
-        for (int k = 0; k < 3; ++k) differing += scene.mesh.corner_uvs[3 * t + k] != reference.mesh.corner_uvs[3 * t + k];
+        for (int k = 0; k < 3; ++k)
+          differing += scene.mesh.corner_uvs[3 * t + k] != reference.mesh.corner_uvs[3 * t + k];
     EXPECT_EQ(differing, 0u);
     EXPECT_EQ(scene.materials.size(), reference.materials.size());
     ASSERT_EQ(scene.positions.size(), reference.positions.size());
@@ -177,7 +180,8 @@ TEST_P(BuiltinSceneTest, IclAndPlainDensities) {
                                   "plaster"};
   EXPECT_EQ(painted, expected_paint);
   EXPECT_GE(textured.size(), 15u);
-  for (const char* object : {"oak_wood", "book_spines", "poster", "screen"}) EXPECT_TRUE(textured.count(object)) << object;
+  for (const char* object : {"oak_wood", "book_spines", "poster", "screen"})
+    EXPECT_TRUE(textured.count(object)) << object;
   // Paint colours differ between walls and are not pure white.
   std::set<std::vector<float>> colours;
   for (const Material& material : scene.materials)
@@ -701,9 +705,10 @@ void write_vertex_coloured_room(const fs::path& path) {
       {{{0, 0, 0}, {0, w, 0}, {0, w, h}, {0, 0, h}}, {yellow, yellow, yellow, yellow}},
       {{{w, w, 0}, {w, 0, 0}, {w, 0, h}, {w, w, h}}, {yellow, yellow, yellow, yellow}},
   };
-  std::string ply = "ply\nformat ascii 1.0\nelement vertex 24\nproperty float x\nproperty float y\nproperty float z\n"
-                    "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 6\n"
-                    "property list uchar int vertex_indices\nend_header\n";
+  std::string ply =
+      "ply\nformat ascii 1.0\nelement vertex 24\nproperty float x\nproperty float y\nproperty float z\n"
+      "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 6\n"
+      "property list uchar int vertex_indices\nend_header\n";
   for (const Face& face : faces)
     for (int k = 0; k < 4; ++k)
       ply += std::to_string(face.corners[k].x()) + " " + std::to_string(face.corners[k].y()) + " " +
@@ -784,7 +789,8 @@ TEST(LoadScene, PerVertexColourIsRenderedInterpolated) {
   const TriangleMesh ground_truth = read_ply_mesh(dir / "export" / "room_groundtruth.ply");
   ASSERT_EQ(ground_truth.vertex_colours.size(), ground_truth.vertices.size());
   for (std::size_t i = 0; i < ground_truth.vertices.size(); ++i)
-    EXPECT_LT((ground_truth.vertex_colours[i] - scene.mesh.vertex_colours[i]).cwiseAbs().maxCoeff(), 0.5f / 255.f + 1e-6f);
+    EXPECT_LT((ground_truth.vertex_colours[i] - scene.mesh.vertex_colours[i]).cwiseAbs().maxCoeff(),
+              0.5f / 255.f + 1e-6f);
 }
 
 // glTF's COLOR_0 is read as per-vertex colour too.
@@ -814,7 +820,7 @@ TEST(LoadScene, ReadsGltfVertexColours) {
   ASSERT_EQ(scene.mesh.vertex_colours.size(), scene.mesh.vertices.size());
   for (std::size_t i = 0; i < scene.mesh.vertices.size(); ++i) {
     const Eigen::Vector3f& p = scene.mesh.vertices[i];
-    const Eigen::Vector3f expected = p.x() > 0.5f ? Eigen::Vector3f(0, 1, 0)
+    const Eigen::Vector3f expected = p.x() > 0.5f   ? Eigen::Vector3f(0, 1, 0)
                                      : p.y() > 0.5f ? Eigen::Vector3f(0, 0, 1)
                                                     : Eigen::Vector3f(1, 0, 0);
     EXPECT_TRUE(scene.mesh.vertex_colours[i].isApprox(expected, 1e-6f)) << p.transpose();

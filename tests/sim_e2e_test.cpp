@@ -37,10 +37,10 @@ TEST(SimEndToEnd, OfficeScanOnDiskHasExactGroundTruth) {
     const std::size_t f = truth.size() / 2;
     const RgbdFrame frame = load_frame(scan, c, f);
     const PinholeIntrinsics& k = scan.rig.sensors[c].intrinsics;
-    const ImageF32 clean = depth_from_png_units(
-        read_png16(tmp / "SO-1" / "groundtruth" / "depth_clean" / scan.rig.sensors[c].name /
-                   (format_timestamp(truth[f].timestamp) + ".png")),
-        5000.0);
+    const ImageF32 clean =
+        depth_from_png_units(read_png16(tmp / "SO-1" / "groundtruth" / "depth_clean" / scan.rig.sensors[c].name /
+                                        (format_timestamp(truth[f].timestamp) + ".png")),
+                             5000.0);
     // Brute force over all triangles for a random sample of pixels: an independent check of
     // the renderer, the poses and the file formats.
     int checked = 0;
@@ -53,9 +53,9 @@ TEST(SimEndToEnd, OfficeScanOnDiskHasExactGroundTruth) {
       const Eigen::Vector3d p = truth[f].world_from_cam * k.backproject(x, y, z);
       double best = 1e9;
       for (const auto& tri : mesh.triangles)
-        best = std::min(best, point_triangle_distance(p, mesh.vertices[tri[0]].cast<double>(),
-                                                      mesh.vertices[tri[1]].cast<double>(),
-                                                      mesh.vertices[tri[2]].cast<double>()));
+        best = std::min(
+            best, point_triangle_distance(p, mesh.vertices[tri[0]].cast<double>(), mesh.vertices[tri[1]].cast<double>(),
+                                          mesh.vertices[tri[2]].cast<double>()));
       ASSERT_LT(best, 1e-4 * k.backproject(x, y, 1.0).norm() + 1e-6) << "camera " << c << " pixel " << x << "," << y;
       ++checked;
       if (frame.depth.at(x, y) > 0) {

@@ -13,14 +13,14 @@ using namespace panoscan;
 namespace {
 
 struct WallStatistics {
-  double normalised_std = 0;   // std of (noisy - clean) / predicted sigma
-  double absolute_std_m = 0;   // std of (noisy - clean) in metres
+  double normalised_std = 0;  // std of (noisy - clean) / predicted sigma
+  double absolute_std_m = 0;  // std of (noisy - clean) in metres
   double fraction_on_levels = 0;
   std::size_t valid = 0;
 };
 
-// Looks at a large wall from `distance` (camera 4 m above the floor, so only the wall is seen), turned by `yaw_deg` so that the
-// depth, and with it the quantisation phase, varies across the image.
+// Looks at a large wall from `distance` (camera 4 m above the floor, so only the wall is seen), turned by `yaw_deg` so
+// that the depth, and with it the quantisation phase, varies across the image.
 WallStatistics measure_wall(double distance, double yaw_deg, const NoiseOptions& options, int frames) {
   const Scene scene = testutil::make_box_room(-distance, 30, -30, 30, 8, Eigen::Vector3d::Zero());
   const Renderer renderer(scene);
@@ -30,9 +30,9 @@ WallStatistics measure_wall(double distance, double yaw_deg, const NoiseOptions&
   world_from_cam_rotation.col(2) = Eigen::Vector3d(-1, 0, 0);
   world_from_cam_rotation.col(0) = Eigen::Vector3d(0, 1, 0);
   world_from_cam_rotation.col(1) = Eigen::Vector3d(0, 0, -1);
-  const Rigid3d pose = make_rigid(Eigen::Matrix3d(Eigen::AngleAxisd(deg2rad(yaw_deg), Eigen::Vector3d::UnitZ())) *
-                                      world_from_cam_rotation,
-                                  Eigen::Vector3d(0, 0, 4.0));
+  const Rigid3d pose = make_rigid(
+      Eigen::Matrix3d(Eigen::AngleAxisd(deg2rad(yaw_deg), Eigen::Vector3d::UnitZ())) * world_from_cam_rotation,
+      Eigen::Vector3d(0, 0, 4.0));
   const RenderedView view = renderer.render(pose, k);
   const double sigma_disparity = options.effective_disparity_std();
   WallStatistics stats;
@@ -85,8 +85,8 @@ TEST(DepthNoise, FlatWallStdIsTheModelsAndDepthsLieOnDisparityLevels) {
     const double predicted = handa_depth_std(distance);
     std::printf("wall at %.0f m: depth std %.2f mm (model %.2f mm), normalised std %.3f\n", distance,
                 stats.absolute_std_m * 1e3, predicted * 1e3, stats.normalised_std);
-    EXPECT_NEAR(stats.absolute_std_m / predicted, 1.0, 0.15) << "wall at " << distance << " m: measured "
-                                                             << stats.absolute_std_m * 1e3 << " mm";
+    EXPECT_NEAR(stats.absolute_std_m / predicted, 1.0, 0.15)
+        << "wall at " << distance << " m: measured " << stats.absolute_std_m * 1e3 << " mm";
     EXPECT_EQ(stats.fraction_on_levels, 1.0) << "wall at " << distance << " m";
   }
 }
@@ -103,10 +103,10 @@ TEST(DepthNoise, DisparityNoiseIsGaussianWithTheModelsStd) {
   rotation.col(2) = Eigen::Vector3d(-1, 0, 0);
   rotation.col(0) = Eigen::Vector3d(0, 1, 0);
   rotation.col(1) = Eigen::Vector3d(0, 0, -1);
-  const RenderedView view = renderer.render(
-      make_rigid(Eigen::Matrix3d(Eigen::AngleAxisd(deg2rad(15.0), Eigen::Vector3d::UnitZ())) * rotation,
-                 Eigen::Vector3d(0, 0, 4.0)),
-      k);
+  const RenderedView view =
+      renderer.render(make_rigid(Eigen::Matrix3d(Eigen::AngleAxisd(deg2rad(15.0), Eigen::Vector3d::UnitZ())) * rotation,
+                                 Eigen::Vector3d(0, 0, 4.0)),
+                      k);
   NoiseOptions options;
   options.shift_std_px = 0.0;
   double sum2 = 0;
@@ -145,8 +145,8 @@ TEST(DepthNoise, RangeIncidenceAndInvalidNeighbours) {
     // their inner columns.
     for (int x = 0; x < 5; ++x) depth.at(x, y) = 0.3f;    // too close
     for (int x = 35; x < 40; ++x) depth.at(x, y) = 9.0f;  // too far
-    incidence.at(30, y) = 0.1f;  // 84 deg: grazing
-    depth.at(20, y) = 0.0f;      // a hole: neighbours may become invalid through the shift
+    incidence.at(30, y) = 0.1f;                           // 84 deg: grazing
+    depth.at(20, y) = 0.0f;                               // a hole: neighbours may become invalid through the shift
   }
   NoiseOptions options;
   DepthNoiseInput input{&depth, &incidence, &k, 0, 0};

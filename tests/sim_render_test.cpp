@@ -47,8 +47,8 @@ TEST(Renderer, DepthIsZAlongTheOpticalAxisAndIdsAreTheHitTriangles) {
       const Eigen::Vector3d point = pose * k.backproject(x, y, view.depth.at(x, y));
       const auto& tri = scene.mesh.triangles[id];
       const auto& v = scene.mesh.vertices;
-      const double d = point_triangle_distance(point, v[tri[0]].cast<double>(), v[tri[1]].cast<double>(),
-                                               v[tri[2]].cast<double>());
+      const double d =
+          point_triangle_distance(point, v[tri[0]].cast<double>(), v[tri[1]].cast<double>(), v[tri[2]].cast<double>());
       ASSERT_LT(d, 1e-4) << "pixel " << x << "," << y;
       ++checked;
     }
@@ -59,7 +59,8 @@ TEST(Renderer, EquirectangularDepthIsRadialAndLandsOnTheMesh) {
   const Scene scene = testutil::make_box_room(-2, 3, -2.5, 2, 2.7, Eigen::Vector3d(0.3, 0.2, 0));
   const Renderer renderer(scene);
   const Equirectangular pano{32};
-  const Rigid3d world_from_pano = make_rigid(so3_exp(Eigen::Vector3d(0.02, -0.01, 0.7)), Eigen::Vector3d(0.3, 0.2, 1.2));
+  const Rigid3d world_from_pano =
+      make_rigid(so3_exp(Eigen::Vector3d(0.02, -0.01, 0.7)), Eigen::Vector3d(0.3, 0.2, 1.2));
   const RenderedView view = renderer.render_equirectangular(world_from_pano, pano);
   for (int y = 0; y < pano.height; ++y)
     for (int x = 0; x < pano.width(); ++x) {
@@ -68,9 +69,9 @@ TEST(Renderer, EquirectangularDepthIsRadialAndLandsOnTheMesh) {
       const Eigen::Vector3d point = world_from_pano * (pano.direction(x, y) * view.depth.at(x, y));
       const auto& tri = scene.mesh.triangles[id];
       const auto& v = scene.mesh.vertices;
-      ASSERT_LT(point_triangle_distance(point, v[tri[0]].cast<double>(), v[tri[1]].cast<double>(),
-                                        v[tri[2]].cast<double>()),
-                1e-4);
+      ASSERT_LT(
+          point_triangle_distance(point, v[tri[0]].cast<double>(), v[tri[1]].cast<double>(), v[tri[2]].cast<double>()),
+          1e-4);
     }
   // Straight up from 1.2 m in a 2.7 m room: the ceiling is 1.5 m away (nearly; the pano is tilted 1 deg).
   EXPECT_NEAR(view.depth.at(0, 0), 1.5, 0.01);
@@ -118,7 +119,8 @@ TEST(Simulator, SameSeedSameBytesWithOneAndTwoThreads) {
     ASSERT_TRUE(fs::exists(tmp / "two" / relative)) << relative;
     ASSERT_EQ(read_bytes(entry.path()), read_bytes(tmp / "two" / relative)) << relative;
     ++files;
-    if (!fs::exists(tmp / "other_seed" / relative) || read_bytes(entry.path()) != read_bytes(tmp / "other_seed" / relative))
+    if (!fs::exists(tmp / "other_seed" / relative) ||
+        read_bytes(entry.path()) != read_bytes(tmp / "other_seed" / relative))
       ++differing_from_other_seed;
   }
   EXPECT_GT(files, 60u);
@@ -148,10 +150,10 @@ TEST(Simulator, WrittenScanReadsBackWithGroundTruth) {
     // Noiseless depth from disk back-projects onto the mesh within the PNG step (0.2 mm).
     const RgbdFrame frame = load_frame(scan, c, 2);
     EXPECT_EQ(frame.timestamp, truth[2].timestamp);
-    const ImageF32 clean = depth_from_png_units(
-        read_png16(tmp / "scan" / "groundtruth" / "depth_clean" / scan.rig.sensors[c].name /
-                            (format_timestamp(truth[2].timestamp) + ".png")),
-        5000.0);
+    const ImageF32 clean =
+        depth_from_png_units(read_png16(tmp / "scan" / "groundtruth" / "depth_clean" / scan.rig.sensors[c].name /
+                                        (format_timestamp(truth[2].timestamp) + ".png")),
+                             5000.0);
     const PinholeIntrinsics& k = scan.rig.sensors[c].intrinsics;
     std::size_t valid = 0;
     for (int y = 0; y < k.height; ++y)

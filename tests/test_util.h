@@ -64,9 +64,10 @@ inline Scene make_box_room(double x0, double x1, double y0, double y1, double h,
   scene.textures.push_back(checker);
   scene.materials.push_back({"wall", {1.f, 1.f, 1.f}, 0});
   auto& m = scene.mesh;
-  const Eigen::Vector3f corners[8] = {
-      {float(x0), float(y0), 0.f}, {float(x1), float(y0), 0.f}, {float(x1), float(y1), 0.f}, {float(x0), float(y1), 0.f},
-      {float(x0), float(y0), float(h)}, {float(x1), float(y0), float(h)}, {float(x1), float(y1), float(h)}, {float(x0), float(y1), float(h)}};
+  const Eigen::Vector3f corners[8] = {{float(x0), float(y0), 0.f},      {float(x1), float(y0), 0.f},
+                                      {float(x1), float(y1), 0.f},      {float(x0), float(y1), 0.f},
+                                      {float(x0), float(y0), float(h)}, {float(x1), float(y0), float(h)},
+                                      {float(x1), float(y1), float(h)}, {float(x0), float(y1), float(h)}};
   for (const auto& c : corners) m.vertices.push_back(c);
   // Quads wound so that normals point into the room.
   const int quads[6][4] = {{0, 1, 2, 3}, {4, 7, 6, 5}, {0, 4, 5, 1}, {1, 5, 6, 2}, {2, 6, 7, 3}, {3, 7, 4, 0}};

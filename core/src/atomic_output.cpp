@@ -29,8 +29,9 @@ void ensure_parent_exists(const fs::path& path) {
   std::error_code ec;
   fs::create_directories(parent, ec);
   if (ec || !fs::is_directory(parent))
-    throw make_error(path.string(), "", "cannot create the output folder " + parent.string() + ": " +
-                                            (ec ? ec.message() : std::string("not a directory")));
+    throw make_error(path.string(), "",
+                     "cannot create the output folder " + parent.string() + ": " +
+                         (ec ? ec.message() : std::string("not a directory")));
 }
 
 }  // namespace

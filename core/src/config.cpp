@@ -244,7 +244,8 @@ struct Config::Impl {
 
   void set_value(const std::string& key, const YAML::Node& value, const std::string& what_for_errors) {
     if (!is_valid_dotted_key(key)) {
-      throw make_error(kCommandLineOrigin, "", "invalid key in " + what_for_errors + ": keys are dotted names like noise.preset");
+      throw make_error(kCommandLineOrigin, "",
+                       "invalid key in " + what_for_errors + ": keys are dotted names like noise.preset");
     }
     const std::vector<std::string> parts = split_dotted_key(key);
     YAML::Node current;
@@ -258,9 +259,9 @@ struct Config::Impl {
       if (!existing.IsDefined() || existing.IsNull()) {
         current[part] = YAML::Node(YAML::NodeType::Map);
       } else if (!existing.IsMap()) {
-        throw make_error(origin_of(walked), walked,
-                         "cannot apply " + what_for_errors + ": '" + walked + "' holds " + describe(existing) +
-                             ", not a map");
+        throw make_error(
+            origin_of(walked), walked,
+            "cannot apply " + what_for_errors + ": '" + walked + "' holds " + describe(existing) + ", not a map");
       }
       YAML::Node child = current[part];
       current.reset(child);

@@ -62,8 +62,7 @@ double wrap_pi(double angle_rad) {
 
 Eigen::Matrix3d closest_rotation(const Eigen::Matrix3d& m, bool* rank_deficient) {
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  if (rank_deficient)
-    *rank_deficient = svd.singularValues()[1] <= 1e-12 * std::max(1.0, svd.singularValues()[0]);
+  if (rank_deficient) *rank_deficient = svd.singularValues()[1] <= 1e-12 * std::max(1.0, svd.singularValues()[0]);
   Eigen::Matrix3d sign = Eigen::Matrix3d::Identity();
   if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) sign(2, 2) = -1.0;
   return svd.matrixU() * sign * svd.matrixV().transpose();

@@ -22,8 +22,9 @@ namespace {
 
 void check_shape(const fs::path& path, int width, int height, int channels, std::size_t size) {
   if (width <= 0 || height <= 0 || size != std::size_t(width) * height * channels)
-    throw make_error(path.string(), "image", "inconsistent image buffer (" + std::to_string(width) + "x" +
-                                                 std::to_string(height) + "x" + std::to_string(channels) + ")");
+    throw make_error(path.string(), "image",
+                     "inconsistent image buffer (" + std::to_string(width) + "x" + std::to_string(height) + "x" +
+                         std::to_string(channels) + ")");
 }
 
 // `strategy`: zlib's; measured on simulated 640x480 frames at level 1, Huffman-only coding is
@@ -82,7 +83,8 @@ void write_png(const fs::path& path, const ImageU8& image, int compression) {
 void write_png16(const fs::path& path, const ImageU16& image, int compression) {
   check_shape(path, image.width, image.height, 1, image.data.size());
   cv::Mat mat(image.height, image.width, CV_16UC1, const_cast<std::uint16_t*>(image.data.data()));
-  encode_png(path, mat, compression, compression <= 1 ? cv::IMWRITE_PNG_STRATEGY_RLE : cv::IMWRITE_PNG_STRATEGY_DEFAULT);
+  encode_png(path, mat, compression,
+             compression <= 1 ? cv::IMWRITE_PNG_STRATEGY_RLE : cv::IMWRITE_PNG_STRATEGY_DEFAULT);
 }
 
 ImageU8 read_rgb(const fs::path& path) {
@@ -109,9 +111,9 @@ ImageU8 read_rgb(const fs::path& path) {
 ImageU16 read_png16(const fs::path& path) {
   cv::Mat mat = decode(path, cv::IMREAD_UNCHANGED);
   if (mat.depth() != CV_16U || mat.channels() != 1)
-    throw make_error(path.string(), "format", "expected a 16-bit single-channel depth image, found " +
-                                                  std::to_string(mat.channels()) + " channel(s) of " +
-                                                  (mat.depth() == CV_8U ? "8" : "other") + "-bit data");
+    throw make_error(path.string(), "format",
+                     "expected a 16-bit single-channel depth image, found " + std::to_string(mat.channels()) +
+                         " channel(s) of " + (mat.depth() == CV_8U ? "8" : "other") + "-bit data");
   ImageU16 image(mat.cols, mat.rows, 1);
   for (int y = 0; y < mat.rows; ++y) std::memcpy(image.row(y), mat.ptr(y), std::size_t(mat.cols) * 2);
   return image;
@@ -129,8 +131,7 @@ void write_exr(const fs::path& path, const ImageF32& image, const std::vector<st
       for (int c = 0; c < image.channels; ++c) {
         header.channels().insert(channel_names[c], Imf::Channel(Imf::FLOAT));
         char* base = reinterpret_cast<char*>(const_cast<float*>(image.data.data() + c));
-        frame_buffer.insert(channel_names[c],
-                            Imf::Slice(Imf::FLOAT, base, pixel_stride, pixel_stride * image.width));
+        frame_buffer.insert(channel_names[c], Imf::Slice(Imf::FLOAT, base, pixel_stride, pixel_stride * image.width));
       }
       Imf::OutputFile file(temp.string().c_str(), header);
       file.setFrameBuffer(frame_buffer);

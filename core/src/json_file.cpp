@@ -20,7 +20,8 @@ nlohmann::json read_json_file(const std::filesystem::path& path, const std::stri
   const std::string file = path.string();
   const std::string suffix = hint.empty() ? "" : " (" + hint + ")";
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw make_error(file, "", "is a directory, expected a JSON file" + suffix);
+  if (std::filesystem::is_directory(path, ec))
+    throw make_error(file, "", "is a directory, expected a JSON file" + suffix);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw make_error(file, "", "cannot open" + suffix);
   std::ostringstream text;

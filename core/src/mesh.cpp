@@ -11,20 +11,20 @@ void Scene::check(const std::string& origin) const {
   const std::size_t num_triangles = mesh.triangles.size();
   if (num_triangles == 0) throw make_error(origin, "triangles", "the scene has no triangles");
   for (std::size_t i = 0; i < num_vertices; ++i)
-    if (!mesh.vertices[i].allFinite())
-      throw make_error(origin, "vertex " + std::to_string(i), "non-finite coordinate");
+    if (!mesh.vertices[i].allFinite()) throw make_error(origin, "vertex " + std::to_string(i), "non-finite coordinate");
   for (std::size_t t = 0; t < num_triangles; ++t)
     for (int k = 0; k < 3; ++k) {
       const int index = mesh.triangles[t][k];
       if (index < 0 || std::size_t(index) >= num_vertices)
-        throw make_error(origin, "triangle " + std::to_string(t),
-                         "vertex index " + std::to_string(index) + " out of range (" + std::to_string(num_vertices) +
-                             " vertices)");
+        throw make_error(
+            origin, "triangle " + std::to_string(t),
+            "vertex index " + std::to_string(index) + " out of range (" + std::to_string(num_vertices) + " vertices)");
     }
   if (!mesh.vertex_colours.empty()) {
     if (mesh.vertex_colours.size() != num_vertices)
-      throw make_error(origin, "vertex colours", "expected one per vertex (" + std::to_string(num_vertices) +
-                                                     "), got " + std::to_string(mesh.vertex_colours.size()));
+      throw make_error(origin, "vertex colours",
+                       "expected one per vertex (" + std::to_string(num_vertices) + "), got " +
+                           std::to_string(mesh.vertex_colours.size()));
     for (std::size_t i = 0; i < num_vertices; ++i) {
       const Eigen::Vector3f& c = mesh.vertex_colours[i];
       if (!c.allFinite() || c.minCoeff() < 0.f || c.maxCoeff() > 1.f)
@@ -42,14 +42,16 @@ void Scene::check(const std::string& origin) const {
     for (std::size_t t = 0; t < num_triangles; ++t) {
       const int m = mesh.triangle_material[t];
       if (m < 0 || std::size_t(m) >= materials.size())
-        throw make_error(origin, "triangle " + std::to_string(t), "material index " + std::to_string(m) + " out of range");
+        throw make_error(origin, "triangle " + std::to_string(t),
+                         "material index " + std::to_string(m) + " out of range");
     }
   }
   for (std::size_t m = 0; m < materials.size(); ++m) {
     const int tex = materials[m].texture;
     if (tex < -1 || tex >= int(textures.size()))
       throw make_error(origin, "material " + materials[m].name, "texture index out of range");
-    if (!materials[m].albedo.allFinite()) throw make_error(origin, "material " + materials[m].name, "non-finite albedo");
+    if (!materials[m].albedo.allFinite())
+      throw make_error(origin, "material " + materials[m].name, "non-finite albedo");
   }
   for (const Texture& texture : textures)
     if (texture.width <= 0 || texture.height <= 0 ||

@@ -186,7 +186,6 @@ class AsciiReader : public DataReader {
   std::size_t offset_;
 };
 
-
 }  // namespace
 
 void write_ply_mesh(const fs::path& path, const TriangleMesh& mesh) {
@@ -305,7 +304,7 @@ TriangleMesh read_ply_mesh(const fs::path& path) {
       for (std::size_t p = 0; p < element.properties.size(); ++p) {
         const PlyProperty& property = element.properties[p];
         if (!property.is_list) {
-          const int channel = !is_vertex || !coloured                    ? -1
+          const int channel = !is_vertex || !coloured                     ? -1
                               : static_cast<int>(p) == colour_property[0] ? 0
                               : static_cast<int>(p) == colour_property[1] ? 1
                               : static_cast<int>(p) == colour_property[2] ? 2

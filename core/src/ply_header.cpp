@@ -14,12 +14,11 @@ bool parse_type(const std::string& word, Type* type) {
   static const struct {
     const char* name;
     Type type;
-  } kTypes[] = {{"char", Type::kInt8},     {"int8", Type::kInt8},       {"uchar", Type::kUInt8},
-                {"uint8", Type::kUInt8},   {"short", Type::kInt16},     {"int16", Type::kInt16},
-                {"ushort", Type::kUInt16}, {"uint16", Type::kUInt16},   {"int", Type::kInt32},
-                {"int32", Type::kInt32},   {"uint", Type::kUInt32},     {"uint32", Type::kUInt32},
-                {"float", Type::kFloat32}, {"float32", Type::kFloat32}, {"double", Type::kFloat64},
-                {"float64", Type::kFloat64}};
+  } kTypes[] = {
+      {"char", Type::kInt8},     {"int8", Type::kInt8},       {"uchar", Type::kUInt8},    {"uint8", Type::kUInt8},
+      {"short", Type::kInt16},   {"int16", Type::kInt16},     {"ushort", Type::kUInt16},  {"uint16", Type::kUInt16},
+      {"int", Type::kInt32},     {"int32", Type::kInt32},     {"uint", Type::kUInt32},    {"uint32", Type::kUInt32},
+      {"float", Type::kFloat32}, {"float32", Type::kFloat32}, {"double", Type::kFloat64}, {"float64", Type::kFloat64}};
   for (const auto& entry : kTypes)
     if (word == entry.name) {
       *type = entry.type;

@@ -30,9 +30,11 @@ namespace panoscan {
 void PointCloud::check(const std::string& origin) const {
   const std::size_t n = positions.size();
   if (!normals.empty() && normals.size() != n)
-    throw make_error(origin, "normals", std::to_string(normals.size()) + " normals for " + std::to_string(n) + " points");
+    throw make_error(origin, "normals",
+                     std::to_string(normals.size()) + " normals for " + std::to_string(n) + " points");
   if (!colours.empty() && colours.size() != n)
-    throw make_error(origin, "colours", std::to_string(colours.size()) + " colours for " + std::to_string(n) + " points");
+    throw make_error(origin, "colours",
+                     std::to_string(colours.size()) + " colours for " + std::to_string(n) + " points");
   if (!variances.empty() && variances.size() != n)
     throw make_error(origin, "variances",
                      std::to_string(variances.size()) + " variances for " + std::to_string(n) + " points");
@@ -103,8 +105,8 @@ class BodyReader {
     if (end == begin) {
       std::size_t token_end = pos_;
       while (token_end < bytes_.size() && !std::isspace(static_cast<unsigned char>(bytes_[token_end]))) ++token_end;
-      throw make_error(file_, where, "'" + bytes_.substr(pos_, std::min<std::size_t>(token_end - pos_, 40)) +
-                                         "' is not a number");
+      throw make_error(file_, where,
+                       "'" + bytes_.substr(pos_, std::min<std::size_t>(token_end - pos_, 40)) + "' is not a number");
     }
     pos_ += static_cast<std::size_t>(end - begin);
     return parsed;
@@ -226,8 +228,8 @@ PointCloud read_ply_point_cloud(const std::filesystem::path& path) {
       if (vertex.properties[(*rgb)[k]].type != PlyType::kUInt8)
         throw make_error(file, "property " + vertex.properties[(*rgb)[k]].name, "colours must be uchar (0..255)");
   const int variance_index = find_property(vertex, "variance");
-  if (variance_index >= 0 && (vertex.properties[variance_index].is_list ||
-                              !is_float_type(vertex.properties[variance_index].type)))
+  if (variance_index >= 0 &&
+      (vertex.properties[variance_index].is_list || !is_float_type(vertex.properties[variance_index].type)))
     throw make_error(file, "property variance", "must be a float or double scalar");
 
   BodyReader reader(bytes, header.body_offset, header.ascii, file);

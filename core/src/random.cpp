@@ -58,7 +58,7 @@ namespace {
 // layer 0 is the base strip plus the tail beyond r.
 struct ZigguratTables {
   static constexpr int kLayers = 128;
-  static constexpr double kTailStart = 3.442619855899;     // r
+  static constexpr double kTailStart = 3.442619855899;       // r
   static constexpr double kLayerArea = 9.91256303526217e-3;  // v
   double width[kLayers + 1];
   double height[kLayers + 1];  // f(width)
@@ -67,7 +67,8 @@ struct ZigguratTables {
     auto f = [](double x) { return std::exp(-0.5 * x * x); };
     width[0] = kLayerArea / f(kTailStart);
     width[1] = kTailStart;
-    for (int i = 2; i < kLayers; ++i) width[i] = std::sqrt(-2.0 * std::log(kLayerArea / width[i - 1] + f(width[i - 1])));
+    for (int i = 2; i < kLayers; ++i)
+      width[i] = std::sqrt(-2.0 * std::log(kLayerArea / width[i - 1] + f(width[i - 1])));
     width[kLayers] = 0.0;
     for (int i = 0; i <= kLayers; ++i) height[i] = f(width[i]);
   }

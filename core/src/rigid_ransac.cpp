@@ -23,8 +23,10 @@ bool rigid_ransac(const std::vector<Eigen::Vector3d>& points_a, const std::vecto
   for (int iteration = 0; iteration < iterations; ++iteration) {
     int idx[3];
     idx[0] = random.uniform_int(0, n - 1);
-    do idx[1] = random.uniform_int(0, n - 1); while (idx[1] == idx[0]);
-    do idx[2] = random.uniform_int(0, n - 1); while (idx[2] == idx[0] || idx[2] == idx[1]);
+    do idx[1] = random.uniform_int(0, n - 1);
+    while (idx[1] == idx[0]);
+    do idx[2] = random.uniform_int(0, n - 1);
+    while (idx[2] == idx[0] || idx[2] == idx[1]);
     for (int k = 0; k < 3; ++k) {
       sample_a[k] = points_a[idx[k]];
       sample_b[k] = points_b[idx[k]];

@@ -130,7 +130,8 @@ double read_positive_number(const json& value, const std::string& origin, const 
 }
 
 long long read_integer(const json& value, const std::string& origin, const std::string& field) {
-  if (!value.is_number_integer()) throw make_error(origin, field, "expected an integer, found " + json_type_text(value));
+  if (!value.is_number_integer())
+    throw make_error(origin, field, "expected an integer, found " + json_type_text(value));
   if (value.is_number_unsigned()) {
     const auto unsigned_value = value.get<std::uint64_t>();
     if (unsigned_value > static_cast<std::uint64_t>(std::numeric_limits<long long>::max())) {
@@ -145,18 +146,17 @@ std::string read_string(const json& value, const std::string& origin, const std:
   return value.get<std::string>();
 }
 
-
 void reject_unknown_fields(const json& object, const std::set<std::string>& known, const std::string& origin,
                            const std::string& object_field) {
   for (const auto& item : object.items()) {
     if (!known.count(item.key())) {
       const std::string field = object_field.empty() ? item.key() : object_field + "." + item.key();
-      throw make_error(origin, field, "unknown field (a typo? this is rig.json format version " +
-                                          std::to_string(kScanFormatVersion) + ")");
+      throw make_error(
+          origin, field,
+          "unknown field (a typo? this is rig.json format version " + std::to_string(kScanFormatVersion) + ")");
     }
   }
 }
-
 
 // Checks the invariants of a RigInfo, whether it was read from rig.json or built in memory
 // (the writer validates before writing, so that it never produces a rig.json the reader refuses).
@@ -172,28 +172,30 @@ void validate_rig(const RigInfo& rig, const std::string& origin) {
     const SensorInfo& sensor = rig.sensors[i];
     const std::string field = "sensors[" + std::to_string(i) + "]";
     if (!is_valid_sensor_name(sensor.name)) {
-      throw make_error(origin, field + ".name",
-                       "'" + sensor.name +
-                           "' is not a valid sensor name (letters, digits, '_' and '-' only; not 'groundtruth')");
+      throw make_error(
+          origin, field + ".name",
+          "'" + sensor.name + "' is not a valid sensor name (letters, digits, '_' and '-' only; not 'groundtruth')");
     }
     if (!names.insert(sensor.name).second) {
       throw make_error(origin, field + ".name", "sensor name '" + sensor.name + "' is used twice");
     }
     const PinholeIntrinsics& k = sensor.intrinsics;
     if (k.width <= 0 || k.width > kMaxImageSide) {
-      throw make_error(origin, field + ".width",
-                       "expected an integer in [1, " + std::to_string(kMaxImageSide) + "], found " + std::to_string(k.width));
+      throw make_error(
+          origin, field + ".width",
+          "expected an integer in [1, " + std::to_string(kMaxImageSide) + "], found " + std::to_string(k.width));
     }
     if (k.height <= 0 || k.height > kMaxImageSide) {
-      throw make_error(origin, field + ".height",
-                       "expected an integer in [1, " + std::to_string(kMaxImageSide) + "], found " +
-                           std::to_string(k.height));
+      throw make_error(
+          origin, field + ".height",
+          "expected an integer in [1, " + std::to_string(kMaxImageSide) + "], found " + std::to_string(k.height));
     }
     const std::pair<const char*, double> positive_values[] = {
         {"fx", k.fx}, {"fy", k.fy}, {"depth_scale", sensor.depth_scale}, {"nominal_fps", sensor.nominal_fps}};
     for (const auto& [name, value] : positive_values) {
       if (!std::isfinite(value) || !(value > 0.0)) {
-        throw make_error(origin, field + "." + name, "expected a finite positive number, found " + std::to_string(value));
+        throw make_error(origin, field + "." + name,
+                         "expected a finite positive number, found " + std::to_string(value));
       }
     }
     if (!std::isfinite(k.cx)) throw make_error(origin, field + ".cx", "expected a finite number");
@@ -279,7 +281,8 @@ std::vector<ListingEntry> read_listing(const fs::path& listing_path, const fs::p
                            "); timestamps must strictly increase");
     }
     if (!is_safe_relative_path(entry.file)) {
-      throw make_error(listing, field, "file name '" + entry.file + "' must be a path relative to " + camera_dir.string());
+      throw make_error(listing, field,
+                       "file name '" + entry.file + "' must be a path relative to " + camera_dir.string());
     }
     const fs::path image_path = camera_dir / entry.file;
     if (!fs::is_regular_file(image_path, ec)) {
@@ -308,9 +311,9 @@ std::vector<FrameEntry> pair_listings(const std::vector<ListingEntry>& rgb, cons
                            std::to_string(depth[d].line_number) + ")");
     }
     if (depth_lacks) {
-      throw make_error(depth_listing.string(), "timestamp " + rgb[r].timestamp_text,
-                       "missing here but listed in " + rgb_listing.string() + " (line " +
-                           std::to_string(rgb[r].line_number) + ")");
+      throw make_error(
+          depth_listing.string(), "timestamp " + rgb[r].timestamp_text,
+          "missing here but listed in " + rgb_listing.string() + " (line " + std::to_string(rgb[r].line_number) + ")");
     }
     FrameEntry frame;
     frame.timestamp = rgb[r].timestamp;
@@ -325,8 +328,9 @@ std::vector<FrameEntry> pair_listings(const std::vector<ListingEntry>& rgb, cons
 
 void check_image_size(const std::string& file, int width, int height, const PinholeIntrinsics& intrinsics) {
   if (width != intrinsics.width || height != intrinsics.height) {
-    throw make_error(file, "image size",
-                     "expected " + size_text(intrinsics.width, intrinsics.height) + ", found " + size_text(width, height));
+    throw make_error(
+        file, "image size",
+        "expected " + size_text(intrinsics.width, intrinsics.height) + ", found " + size_text(width, height));
   }
 }
 
@@ -335,9 +339,9 @@ void check_image_shape(const Image<T>& image, int channels, const std::string& o
   if (image.channels != channels || image.width < 0 || image.height < 0 ||
       image.data.size() != std::size_t(image.width) * image.height * image.channels) {
     throw make_error(origin, field,
-                     "expected a " + std::to_string(channels) + "-channel image, found " + std::to_string(image.channels) +
-                         " channels, " + size_text(image.width, image.height) + ", " + std::to_string(image.data.size()) +
-                         " values");
+                     "expected a " + std::to_string(channels) + "-channel image, found " +
+                         std::to_string(image.channels) + " channels, " + size_text(image.width, image.height) + ", " +
+                         std::to_string(image.data.size()) + " values");
   }
 }
 
@@ -413,10 +417,11 @@ RigInfo rig_from_json(const std::string& text, const std::string& origin) {
   for (std::size_t i = 0; i < sensors.size(); ++i) {
     const json& sensor_json = sensors[i];
     const std::string field = "sensors[" + std::to_string(i) + "]";
-    if (!sensor_json.is_object()) throw make_error(origin, field, "expected an object, found " + json_type_text(sensor_json));
-    reject_unknown_fields(sensor_json,
-                          {"name", "width", "height", "fx", "fy", "cx", "cy", "depth_scale", "nominal_fps", "ref_from_cam"},
-                          origin, field);
+    if (!sensor_json.is_object())
+      throw make_error(origin, field, "expected an object, found " + json_type_text(sensor_json));
+    reject_unknown_fields(
+        sensor_json, {"name", "width", "height", "fx", "fy", "cx", "cy", "depth_scale", "nominal_fps", "ref_from_cam"},
+        origin, field);
     auto required = [&](const char* key) -> const json& { return require_field(sensor_json, key, origin, field); };
     auto sub = [&](const char* key) { return field + "." + key; };
 
@@ -425,8 +430,9 @@ RigInfo rig_from_json(const std::string& text, const std::string& origin) {
     auto read_image_side = [&](const char* key) {
       const long long value = read_integer(required(key), origin, sub(key));
       if (value <= 0 || value > kMaxImageSide) {
-        throw make_error(origin, sub(key),
-                         "expected an integer in [1, " + std::to_string(kMaxImageSide) + "], found " + std::to_string(value));
+        throw make_error(
+            origin, sub(key),
+            "expected an integer in [1, " + std::to_string(kMaxImageSide) + "], found " + std::to_string(value));
       }
       return static_cast<int>(value);
     };
@@ -539,7 +545,7 @@ struct ScanWriter::Impl {
   struct SensorState {
     std::vector<FrameEntry> frames;  // successfully written frames
     bool has_timestamp = false;
-    double last_timestamp = 0.0;     // as read back from its 6-decimal text
+    double last_timestamp = 0.0;  // as read back from its 6-decimal text
   };
 
   fs::path scan_dir;

@@ -66,9 +66,9 @@ std::vector<StampedPose> read_tum_trajectory(const std::filesystem::path& path) 
     std::string token;
     while (tokens >> token) fields.push_back(token);
     if (fields.size() != 8) {
-      throw make_error(file, line_field(line_number),
-                       "expected 8 numbers (timestamp tx ty tz qx qy qz qw), found " + std::to_string(fields.size()) +
-                           " fields");
+      throw make_error(
+          file, line_field(line_number),
+          "expected 8 numbers (timestamp tx ty tz qx qy qz qw), found " + std::to_string(fields.size()) + " fields");
     }
     double numbers[8];
     for (int i = 0; i < 8; ++i) {

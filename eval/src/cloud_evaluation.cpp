@@ -28,8 +28,10 @@ using Clock = std::chrono::steady_clock;
 
 nlohmann::json stats_json(const ErrorStats& s) {
   // NaN (no values) is written as null by nlohmann::json.
-  return {{"count", s.count},       {"rmse_m", s.rmse},     {"mean_m", s.mean}, {"median_m", s.median},
-          {"p90_m", s.p90},         {"p99_m", s.p99},       {"max_m", s.max},   {"rmse_mm", 1e3 * s.rmse},
+  return {{"count", s.count},        {"rmse_m", s.rmse},
+          {"mean_m", s.mean},        {"median_m", s.median},
+          {"p90_m", s.p90},          {"p99_m", s.p99},
+          {"max_m", s.max},          {"rmse_mm", 1e3 * s.rmse},
           {"mean_mm", 1e3 * s.mean}, {"median_mm", 1e3 * s.median}};
 }
 
@@ -198,32 +200,31 @@ std::string cloud_report_to_json(const CloudEvalReport& r) {
                  {"cloud_points", r.cloud_points},
                  {"cloud_has_colours", r.cloud_has_colours},
                  {"cloud_has_variances", r.cloud_has_variances}};
-  j["settings"] = {
-      {"distance", "exact point-to-triangle distance (Embree BVH proposes, double precision decides)"},
-      {"percentiles", "linear interpolation between order statistics (numpy default)"},
-      {"thresholds_m", o.thresholds_m},
-      {"outlier_cutoff_m", o.outlier_cutoff_m},
-      {"completeness",
-       {{"enabled", o.completeness.enabled},
-        {"samples_per_m2", o.completeness.samples_per_m2},
-        {"max_samples", o.completeness.max_samples},
-        {"seed", o.completeness.seed},
-        {"triangle_mask", !o.completeness.triangle_mask.empty()},
-        {"visibility",
-         {{"viewpoints", viewpoints},
-          {"viewpoint_trajectories", trajectories},
-          {"min_range_m", o.completeness.visibility.min_range_m},
-          {"max_range_m", o.completeness.visibility.max_range_m},
-          {"max_incidence_deg", o.completeness.visibility.max_incidence_deg},
-          {"max_abs_elevation_deg", o.completeness.visibility.max_abs_elevation_deg},
-          {"end_margin_m", o.completeness.visibility.end_margin_m}}}}},
-      {"threads", r.options.threads}};
+  j["settings"] = {{"distance", "exact point-to-triangle distance (Embree BVH proposes, double precision decides)"},
+                   {"percentiles", "linear interpolation between order statistics (numpy default)"},
+                   {"thresholds_m", o.thresholds_m},
+                   {"outlier_cutoff_m", o.outlier_cutoff_m},
+                   {"completeness",
+                    {{"enabled", o.completeness.enabled},
+                     {"samples_per_m2", o.completeness.samples_per_m2},
+                     {"max_samples", o.completeness.max_samples},
+                     {"seed", o.completeness.seed},
+                     {"triangle_mask", !o.completeness.triangle_mask.empty()},
+                     {"visibility",
+                      {{"viewpoints", viewpoints},
+                       {"viewpoint_trajectories", trajectories},
+                       {"min_range_m", o.completeness.visibility.min_range_m},
+                       {"max_range_m", o.completeness.visibility.max_range_m},
+                       {"max_incidence_deg", o.completeness.visibility.max_incidence_deg},
+                       {"max_abs_elevation_deg", o.completeness.visibility.max_abs_elevation_deg},
+                       {"end_margin_m", o.completeness.visibility.end_margin_m}}}}},
+                   {"threads", r.options.threads}};
   j["accuracy"] = stats_json(m.accuracy_m);
-  j["accuracy_within_cutoff"] =
-      m.outlier_cutoff_m > 0 ? nlohmann::json{{"cutoff_m", m.outlier_cutoff_m},
-                                              {"points_beyond_cutoff", m.points_beyond_cutoff},
-                                              {"stats", stats_json(m.accuracy_within_cutoff_m)}}
-                             : nlohmann::json(nullptr);
+  j["accuracy_within_cutoff"] = m.outlier_cutoff_m > 0
+                                    ? nlohmann::json{{"cutoff_m", m.outlier_cutoff_m},
+                                                     {"points_beyond_cutoff", m.points_beyond_cutoff},
+                                                     {"stats", stats_json(m.accuracy_within_cutoff_m)}}
+                                    : nlohmann::json(nullptr);
   j["completeness"] = m.has_completeness ? nlohmann::json{{"surface_samples", m.surface_samples},
                                                           {"visible_samples", m.visible_samples},
                                                           {"sampled_area_m2", m.sampled_area_m2},
@@ -237,15 +238,18 @@ std::string cloud_report_to_json(const CloudEvalReport& r) {
                       {"completeness", s.completeness},
                       {"f_score", s.f_score}});
   j["scores"] = scores;
-  j["histograms"] = {{"accuracy", histogram_json(r.accuracy_histogram_m)},
-                     {"completeness", m.has_completeness ? histogram_json(r.completeness_histogram_m)
-                                                         : nlohmann::json(nullptr)}};
+  j["histograms"] = {
+      {"accuracy", histogram_json(r.accuracy_histogram_m)},
+      {"completeness", m.has_completeness ? histogram_json(r.completeness_histogram_m) : nlohmann::json(nullptr)}};
   j["coloured_ply"] = r.options.coloured_ply.empty()
                           ? nlohmann::json(nullptr)
                           : nlohmann::json{{"path", r.options.coloured_ply.string()},
                                            {"colour_map", to_string(r.colour_legend.map)},
                                            {"range_m", {r.colour_legend.min, r.colour_legend.max}}};
-  j["timing_s"] = {{"bvh", r.seconds_bvh}, {"accuracy", m.seconds_accuracy}, {"completeness", m.seconds_completeness}, {"total", r.seconds_total}};
+  j["timing_s"] = {{"bvh", r.seconds_bvh},
+                   {"accuracy", m.seconds_accuracy},
+                   {"completeness", m.seconds_completeness},
+                   {"total", r.seconds_total}};
   return j.dump(2) + "\n";
 }
 

@@ -20,7 +20,6 @@ Eigen::Vector3d vector_field(const nlohmann::json& j, const std::string& file, c
   return {j[0].get<double>(), j[1].get<double>(), j[2].get<double>()};
 }
 
-
 }  // namespace
 
 Rigid3d scene_from_reconstruction(const std::vector<StampedPose>& true_poses,
@@ -44,15 +43,13 @@ RigTrajectory groundtruth_rig_trajectory(const fs::path& scan_dir) {
     if (sensors.size() != scan.rig.sensors.size())
       throw make_error(file, "sensors", "does not match rig.json's sensor count");
     for (std::size_t c = 0; c < sensors.size(); ++c)
-      trajectory.ref_from_cam.push_back(
-          pose_from_json(sensors[c].at("ref_from_cam_true"), file, "sensors[" + std::to_string(c) + "].ref_from_cam_true"));
+      trajectory.ref_from_cam.push_back(pose_from_json(sensors[c].at("ref_from_cam_true"), file,
+                                                       "sensors[" + std::to_string(c) + "].ref_from_cam_true"));
     const int reference = scan.rig.reference_sensor;
-    if (trajectory.world_from_cam[reference].empty())
-      throw make_error(file, "reference sensor", "has no frames");
-    trajectory.world_from_axis =
-        axis_frame(vector_field(truth.at("axis").at("point"), file, "axis.point"),
-                   vector_field(truth.at("axis").at("direction"), file, "axis.direction"),
-                   trajectory.world_from_cam[reference].front().world_from_cam);
+    if (trajectory.world_from_cam[reference].empty()) throw make_error(file, "reference sensor", "has no frames");
+    trajectory.world_from_axis = axis_frame(vector_field(truth.at("axis").at("point"), file, "axis.point"),
+                                            vector_field(truth.at("axis").at("direction"), file, "axis.direction"),
+                                            trajectory.world_from_cam[reference].front().world_from_cam);
     check_rig_trajectory(trajectory, scan, groundtruth_dir(scan_dir).string());
     return trajectory;
   } catch (const nlohmann::json::exception& e) {

@@ -17,8 +17,8 @@ ImageF32 luma(const Image<T>& rgb, float scale, const char* what) {
   ImageF32 grey(rgb.width, rgb.height, 1);
   for (int y = 0; y < rgb.height; ++y)
     for (int x = 0; x < rgb.width; ++x)
-      grey.at(x, y) = scale * (0.299f * float(rgb.at(x, y, 0)) + 0.587f * float(rgb.at(x, y, 1)) +
-                               0.114f * float(rgb.at(x, y, 2)));
+      grey.at(x, y) =
+          scale * (0.299f * float(rgb.at(x, y, 0)) + 0.587f * float(rgb.at(x, y, 1)) + 0.114f * float(rgb.at(x, y, 2)));
   return grey;
 }
 
@@ -59,7 +59,8 @@ FlatPixelShare flat_pixel_share(const ImageF32& grey, const ImageU8& valid, int 
     for (int x = 0; x < w; ++x) {
       if (!((all_valid || valid.at(x, y) != 0) && std::isfinite(grey.at(x, y)))) continue;
       ++result.valid_pixels;
-      const int x0 = std::max(0, x - r), x1 = std::min(w, x + r + 1), y0 = std::max(0, y - r), y1 = std::min(h, y + r + 1);
+      const int x0 = std::max(0, x - r), x1 = std::min(w, x + r + 1), y0 = std::max(0, y - r),
+                y1 = std::min(h, y + r + 1);
       const double n = box(count, x0, y0, x1, y1);
       if (n < 0.5 * double(x1 - x0) * double(y1 - y0)) continue;
       const double mean = box(sum, x0, y0, x1, y1) / n;

@@ -91,8 +91,9 @@ struct MeshDistance::Impl {
   void check_embree(const char* step) const {
     const RTCError code = rtcGetDeviceError(device);
     if (code != RTC_ERROR_NONE)
-      throw make_error(origin, "", std::string("Embree failed to ") + step + " (error code " +
-                                       std::to_string(static_cast<int>(code)) + ")");
+      throw make_error(
+          origin, "",
+          std::string("Embree failed to ") + step + " (error code " + std::to_string(static_cast<int>(code)) + ")");
   }
 };
 
@@ -109,9 +110,9 @@ MeshDistance::MeshDistance(const TriangleMesh& mesh, const std::string& origin) 
     const Eigen::Vector3i& tri = mesh.triangles[t];
     for (int k = 0; k < 3; ++k)
       if (tri[k] < 0 || static_cast<std::size_t>(tri[k]) >= num_vertices)
-        throw make_error(origin, "triangle " + std::to_string(t),
-                         "vertex index " + std::to_string(tri[k]) + " out of range (" + std::to_string(num_vertices) +
-                             " vertices)");
+        throw make_error(
+            origin, "triangle " + std::to_string(t),
+            "vertex index " + std::to_string(tri[k]) + " out of range (" + std::to_string(num_vertices) + " vertices)");
     m.triangles[t] = {mesh.vertices[tri[0]].cast<double>(), mesh.vertices[tri[1]].cast<double>(),
                       mesh.vertices[tri[2]].cast<double>()};
     m.area += triangle_area(m.triangles[t]);
@@ -124,8 +125,8 @@ MeshDistance::MeshDistance(const TriangleMesh& mesh, const std::string& origin) 
   rtcSetSceneFlags(m.scene, RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(m.scene, RTC_BUILD_QUALITY_HIGH);
   RTCGeometry geometry = rtcNewGeometry(m.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vertex_buffer = static_cast<float*>(rtcSetNewGeometryBuffer(
-      geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), num_vertices));
+  auto* vertex_buffer = static_cast<float*>(
+      rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), num_vertices));
   auto* index_buffer = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
       geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangles.size()));
   if (!vertex_buffer || !index_buffer) {
@@ -225,9 +226,9 @@ ClosestPoint closest_point_brute_force(const TriangleMesh& mesh, const Eigen::Ve
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const Eigen::Vector3i& tri = mesh.triangles[t];
     Eigen::Vector3d closest;
-    const double d = point_triangle_distance(point, mesh.vertices[tri[0]].cast<double>(),
-                                             mesh.vertices[tri[1]].cast<double>(),
-                                             mesh.vertices[tri[2]].cast<double>(), &closest);
+    const double d =
+        point_triangle_distance(point, mesh.vertices[tri[0]].cast<double>(), mesh.vertices[tri[1]].cast<double>(),
+                                mesh.vertices[tri[2]].cast<double>(), &closest);
     if (d < best.distance) {
       best.distance = d;
       best.point = closest;

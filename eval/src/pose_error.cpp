@@ -16,8 +16,9 @@ PoseError pose_error(const Rigid3d& estimated, const Rigid3d& truth) {
 std::vector<PoseError> extrinsics_errors(const std::vector<Rigid3d>& estimated_ref_from_cam,
                                          const std::vector<Rigid3d>& true_ref_from_cam) {
   if (estimated_ref_from_cam.size() != true_ref_from_cam.size())
-    throw make_error("", "extrinsics", std::to_string(estimated_ref_from_cam.size()) + " estimated cameras but " +
-                                           std::to_string(true_ref_from_cam.size()) + " true ones");
+    throw make_error("", "extrinsics",
+                     std::to_string(estimated_ref_from_cam.size()) + " estimated cameras but " +
+                         std::to_string(true_ref_from_cam.size()) + " true ones");
   std::vector<PoseError> errors;
   for (std::size_t c = 0; c < true_ref_from_cam.size(); ++c)
     errors.push_back(pose_error(estimated_ref_from_cam[c], true_ref_from_cam[c]));

@@ -18,9 +18,8 @@ namespace panoscan::eval {
 namespace {
 
 nlohmann::json stats_json(const ErrorStats& s, const std::string& unit) {
-  return {{"count", s.count},          {"rmse_" + unit, s.rmse}, {"mean_" + unit, s.mean},
-          {"median_" + unit, s.median}, {"p90_" + unit, s.p90},   {"p99_" + unit, s.p99},
-          {"max_" + unit, s.max}};
+  return {{"count", s.count},     {"rmse_" + unit, s.rmse}, {"mean_" + unit, s.mean}, {"median_" + unit, s.median},
+          {"p90_" + unit, s.p90}, {"p99_" + unit, s.p99},   {"max_" + unit, s.max}};
 }
 
 nlohmann::json positions_json(const std::vector<Eigen::Vector3d>& positions) {
@@ -86,8 +85,9 @@ std::string trajectory_report_to_json(const TrajectoryEvalReport& r) {
                  {"gt_poses", m.gt_poses},
                  {"est_poses", m.est_poses},
                  {"matched_poses", m.matched_poses}};
-  j["settings"] = {{"definition", "TUM RGB-D benchmark: ATE after rigid (Horn/Umeyama, no scale) alignment; "
-                                  "RPE over a fixed time delta"},
+  j["settings"] = {{"definition",
+                    "TUM RGB-D benchmark: ATE after rigid (Horn/Umeyama, no scale) alignment; "
+                    "RPE over a fixed time delta"},
                    {"max_time_difference_s", r.options.metrics.max_time_difference_s},
                    {"rpe_delta_s", r.options.metrics.rpe_delta_s},
                    {"align", r.options.metrics.align}};

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 
-
 #include "panoscan/core/error.h"
 
 namespace panoscan::eval {

@@ -27,12 +27,9 @@ MaterialRecipe recipe(MaterialKind kind, int variant, std::uint64_t seed) {
       return {"striped_wallpaper", striped_wallpaper_texture("striped_wallpaper", 1024, seed), 2.4f};
     case MaterialKind::kGeometricWallpaper:
       return {"geometric_wallpaper", geometric_wallpaper_texture("geometric_wallpaper", 1024, seed), 2.4f};
-    case MaterialKind::kBrickWall:
-      return {"brick_wall", brick_texture("brick_wall", 1024, seed), 2.0f};
-    case MaterialKind::kParquetFloor:
-      return {"parquet_floor", parquet_texture("parquet_floor", 1024, seed), 2.0f};
-    case MaterialKind::kCarpetTiles:
-      return {"carpet_tiles", carpet_tiles_texture("carpet_tiles", 1024, seed), 2.0f};
+    case MaterialKind::kBrickWall: return {"brick_wall", brick_texture("brick_wall", 1024, seed), 2.0f};
+    case MaterialKind::kParquetFloor: return {"parquet_floor", parquet_texture("parquet_floor", 1024, seed), 2.0f};
+    case MaterialKind::kCarpetTiles: return {"carpet_tiles", carpet_tiles_texture("carpet_tiles", 1024, seed), 2.0f};
     case MaterialKind::kCofferedCeiling:
       return {"coffered_ceiling", coffered_ceiling_texture("coffered_ceiling", 1024, seed), 2.4f};
     case MaterialKind::kAcousticCeiling:
@@ -43,8 +40,7 @@ MaterialRecipe recipe(MaterialKind kind, int variant, std::uint64_t seed) {
       return {"plaster", plaster_texture("plaster", 512, seed, Colour(0.85f, 0.80f, 0.68f)), 1.0f};
     case MaterialKind::kOutdoorView:
       return {"outdoor_view" + v, outdoor_view_texture("outdoor_view" + v, 512, seed), 1.0f};
-    case MaterialKind::kDoorLeaf:
-      return {"door_leaf", door_texture("door_leaf", 512, seed), 1.0f};
+    case MaterialKind::kDoorLeaf: return {"door_leaf", door_texture("door_leaf", 512, seed), 1.0f};
     case MaterialKind::kOakWood:
       return {"oak_wood", wood_texture("oak_wood", 512, seed, Colour(0.82f, 0.64f, 0.42f), Colour(0.50f, 0.33f, 0.18f)),
               0.8f};
@@ -54,8 +50,7 @@ MaterialRecipe recipe(MaterialKind kind, int variant, std::uint64_t seed) {
     case MaterialKind::kDeskLaminate:
       return {"desk_laminate",
               wood_texture("desk_laminate", 512, seed, Colour(0.88f, 0.80f, 0.66f), Colour(0.62f, 0.50f, 0.36f)), 1.0f};
-    case MaterialKind::kPlaidFabric:
-      return {"plaid_fabric", plaid_fabric_texture("plaid_fabric", 512, seed), 0.5f};
+    case MaterialKind::kPlaidFabric: return {"plaid_fabric", plaid_fabric_texture("plaid_fabric", 512, seed), 0.5f};
     case MaterialKind::kUpholsteryBlue:
       return {
           "upholstery_blue",
@@ -69,36 +64,21 @@ MaterialRecipe recipe(MaterialKind kind, int variant, std::uint64_t seed) {
       return {"brushed_steel", brushed_metal_texture("brushed_steel", 256, seed, Colour(0.72f, 0.73f, 0.75f)), 0.3f};
     case MaterialKind::kDarkMetal:
       return {"dark_metal", brushed_metal_texture("dark_metal", 256, seed, Colour(0.25f, 0.25f, 0.27f)), 0.3f};
-    case MaterialKind::kDarkPlastic:
-      return {"dark_plastic", dark_plastic_texture("dark_plastic", 256, seed), 0.25f};
-    case MaterialKind::kBookSpines:
-      return {"book_spines", book_spines_texture("book_spines", 512, seed), 0.5f};
-    case MaterialKind::kPaperEdges:
-      return {"paper_edges", paper_edges_texture("paper_edges", 256, seed), 0.15f};
-    case MaterialKind::kLeaf:
-      return {"leaf", leaf_texture("leaf", 256, seed), 0.2f};
-    case MaterialKind::kTerracotta:
-      return {"terracotta", terracotta_texture("terracotta", 256, seed), 0.35f};
-    case MaterialKind::kSoil:
-      return {"soil", soil_texture("soil", 256, seed), 0.3f};
-    case MaterialKind::kLampshade:
-      return {"lampshade", lampshade_texture("lampshade", 256, seed), 0.3f};
-    case MaterialKind::kCeramicTiles:
-      return {"ceramic_tiles", ceramic_tiles_texture("ceramic_tiles", 512, seed), 0.6f};
-    case MaterialKind::kMeshFabric:
-      return {"mesh_fabric", mesh_fabric_texture("mesh_fabric", 256, seed), 0.3f};
-    case MaterialKind::kRug:
-      return {"rug", rug_texture("rug", 1024, seed), 1.0f};
-    case MaterialKind::kScreen:
-      return {"screen" + v, screen_texture("screen" + v, 512, seed), 1.0f};
-    case MaterialKind::kTvPicture:
-      return {"tv_picture", tv_picture_texture("tv_picture", 512, seed), 1.0f};
-    case MaterialKind::kKeyboard:
-      return {"keyboard", keyboard_texture("keyboard", 512, seed), 1.0f};
-    case MaterialKind::kWhiteboard:
-      return {"whiteboard", whiteboard_texture("whiteboard", 512, seed), 1.0f};
-    case MaterialKind::kPoster:
-      return {"poster" + v, poster_texture("poster" + v, 512, seed), 1.0f};
+    case MaterialKind::kDarkPlastic: return {"dark_plastic", dark_plastic_texture("dark_plastic", 256, seed), 0.25f};
+    case MaterialKind::kBookSpines: return {"book_spines", book_spines_texture("book_spines", 512, seed), 0.5f};
+    case MaterialKind::kPaperEdges: return {"paper_edges", paper_edges_texture("paper_edges", 256, seed), 0.15f};
+    case MaterialKind::kLeaf: return {"leaf", leaf_texture("leaf", 256, seed), 0.2f};
+    case MaterialKind::kTerracotta: return {"terracotta", terracotta_texture("terracotta", 256, seed), 0.35f};
+    case MaterialKind::kSoil: return {"soil", soil_texture("soil", 256, seed), 0.3f};
+    case MaterialKind::kLampshade: return {"lampshade", lampshade_texture("lampshade", 256, seed), 0.3f};
+    case MaterialKind::kCeramicTiles: return {"ceramic_tiles", ceramic_tiles_texture("ceramic_tiles", 512, seed), 0.6f};
+    case MaterialKind::kMeshFabric: return {"mesh_fabric", mesh_fabric_texture("mesh_fabric", 256, seed), 0.3f};
+    case MaterialKind::kRug: return {"rug", rug_texture("rug", 1024, seed), 1.0f};
+    case MaterialKind::kScreen: return {"screen" + v, screen_texture("screen" + v, 512, seed), 1.0f};
+    case MaterialKind::kTvPicture: return {"tv_picture", tv_picture_texture("tv_picture", 512, seed), 1.0f};
+    case MaterialKind::kKeyboard: return {"keyboard", keyboard_texture("keyboard", 512, seed), 1.0f};
+    case MaterialKind::kWhiteboard: return {"whiteboard", whiteboard_texture("whiteboard", 512, seed), 1.0f};
+    case MaterialKind::kPoster: return {"poster" + v, poster_texture("poster" + v, 512, seed), 1.0f};
   }
   return {"unknown", Texture{}, 1.f};
 }
@@ -157,10 +137,8 @@ bool is_room_shell(MaterialKind kind) {
     case MaterialKind::kCofferedCeiling:
     case MaterialKind::kAcousticCeiling:
     case MaterialKind::kTrimPaint:
-    case MaterialKind::kPlaster:
-      return true;
-    default:
-      return false;
+    case MaterialKind::kPlaster: return true;
+    default: return false;
   }
 }
 

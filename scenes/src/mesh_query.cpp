@@ -136,9 +136,9 @@ double MeshQuery::distance(const Eigen::Vector3d& point, double cap) const {
       const std::size_t t = static_cast<std::size_t>(order_[i]);
       if (box_distance2(point, lo_[t], hi_[t]) >= best2) continue;
       const Eigen::Vector3i& tri = mesh_.triangles[t];
-      const double dist = point_triangle_distance(point, mesh_.vertices[tri[0]].cast<double>(),
-                                                  mesh_.vertices[tri[1]].cast<double>(),
-                                                  mesh_.vertices[tri[2]].cast<double>());
+      const double dist =
+          point_triangle_distance(point, mesh_.vertices[tri[0]].cast<double>(), mesh_.vertices[tri[1]].cast<double>(),
+                                  mesh_.vertices[tri[2]].cast<double>());
       best2 = std::min(best2, dist * dist);
     }
   }

@@ -632,18 +632,10 @@ Texture poster_texture(const std::string& name, int size, std::uint64_t seed) {
                 r = dice.uniform(0.04f, 0.15f) * s;
     const Colour c = dice.pick(palette);
     switch (dice.integer(0, 3)) {
-      case 0:
-        canvas.disc(x, y, r, c);
-        break;
-      case 1:
-        canvas.rect(x - r, y - 0.7f * r, x + r, y + 0.7f * r, c);
-        break;
-      case 2:
-        canvas.polygon({Point(x - r, y + r), Point(x + r, y + r), Point(x, y - r)}, c);
-        break;
-      default:
-        canvas.ring(x, y, 0.6f * r, r, c);
-        break;
+      case 0: canvas.disc(x, y, r, c); break;
+      case 1: canvas.rect(x - r, y - 0.7f * r, x + r, y + 0.7f * r, c); break;
+      case 2: canvas.polygon({Point(x - r, y + r), Point(x + r, y + r), Point(x, y - r)}, c); break;
+      default: canvas.ring(x, y, 0.6f * r, r, c); break;
     }
   }
   // Title and body text.

@@ -53,8 +53,8 @@ Box3 wall_box(const Wall& wall, const Vec3& lo, const Vec3& hi) {
 // The floor plan: a W x D rectangle, less the notch [W - cw, W] x [D - cd, D] for an L.
 struct Plan {
   float width = 0.f, depth = 0.f, height = 0.f;
-  float notch_w = 0.f, notch_d = 0.f;  // 0 for a rectangle
-  std::vector<Vec2> outline;           // counter-clockwise seen from above
+  float notch_w = 0.f, notch_d = 0.f;         // 0 for a rectangle
+  std::vector<Vec2> outline;                  // counter-clockwise seen from above
   std::vector<std::pair<Vec2, Vec2>> pieces;  // floor rectangles (min, max) without T-junctions
 
   bool is_l() const { return notch_w > 0.f; }
@@ -150,9 +150,8 @@ std::vector<Piece> office_pieces(RandomStream& rng, float height) {
     pieces.push_back({"plant", 0.8f, 0.8f, [](SceneBuilder& b, MaterialLibrary& m, RandomStream& r) {
                         add_plant(b, m, r, float(r.uniform(0.9, 1.2)), 0.38f);
                       }});
-  pieces.push_back({"coat_stand", 0.5f, 0.5f, [](SceneBuilder& b, MaterialLibrary& m, RandomStream&) {
-                      add_coat_stand(b, m);
-                    }});
+  pieces.push_back(
+      {"coat_stand", 0.5f, 0.5f, [](SceneBuilder& b, MaterialLibrary& m, RandomStream&) { add_coat_stand(b, m); }});
   pieces.push_back({"bin", 0.32f, 0.32f, [](SceneBuilder& b, MaterialLibrary& m, RandomStream&) { add_bin(b, m); }});
   return pieces;
 }
@@ -174,9 +173,8 @@ std::vector<Piece> living_room_pieces(RandomStream& rng, float height) {
                       b.pop();
                       b.pop();
                     }});
-  pieces.push_back({"tv_unit", 1.6f, 0.45f, [](SceneBuilder& b, MaterialLibrary& m, RandomStream&) {
-                      add_tv_unit(b, m);
-                    }});
+  pieces.push_back(
+      {"tv_unit", 1.6f, 0.45f, [](SceneBuilder& b, MaterialLibrary& m, RandomStream&) { add_tv_unit(b, m); }});
   const float shelf_height = std::min(2.0f, height - 0.2f);
   pieces.push_back({"bookshelf", 1.2f, 0.32f, [shelf_height](SceneBuilder& b, MaterialLibrary& m, RandomStream& r) {
                       add_bookshelf(b, m, r, 1.2f, shelf_height, 5, m(MK::kWalnutWood));
@@ -213,9 +211,8 @@ std::vector<Piece> living_room_pieces(RandomStream& rng, float height) {
                       add_table_lamp(b, m);
                       b.pop();
                     }});
-  pieces.push_back({"floor_lamp", 0.46f, 0.46f, [](SceneBuilder& b, MaterialLibrary& m, RandomStream&) {
-                      add_floor_lamp(b, m);
-                    }});
+  pieces.push_back(
+      {"floor_lamp", 0.46f, 0.46f, [](SceneBuilder& b, MaterialLibrary& m, RandomStream&) { add_floor_lamp(b, m); }});
   const int plants = rng.uniform_int(1, 2);
   for (int k = 0; k < plants; ++k)
     pieces.push_back({"plant", 0.84f, 0.84f, [](SceneBuilder& b, MaterialLibrary& m, RandomStream& r) {
@@ -227,16 +224,16 @@ std::vector<Piece> living_room_pieces(RandomStream& rng, float height) {
 std::vector<Decoration> decorations(RoomKind kind, RandomStream& rng) {
   std::vector<Decoration> list;
   if (kind == RoomKind::kOffice)
-    list.push_back({"whiteboard", 1.5f, 0.95f, 1.5f, [](SceneBuilder& b, MaterialLibrary& m, float s) {
-                      add_whiteboard(b, m, s, 1.5f, 1.5f, 0.95f);
-                    }});
+    list.push_back({"whiteboard", 1.5f, 0.95f, 1.5f,
+                    [](SceneBuilder& b, MaterialLibrary& m, float s) { add_whiteboard(b, m, s, 1.5f, 1.5f, 0.95f); }});
   const int posters = kind == RoomKind::kOffice ? rng.uniform_int(1, 3) : rng.uniform_int(2, 4);
   for (int k = 0; k < posters; ++k) {
     const float w = float(rng.uniform(0.45, 0.8)), h = float(rng.uniform(0.45, 0.8));
     const MK frame = k % 3 == 0 ? MK::kDarkMetal : (k % 3 == 1 ? MK::kOakWood : MK::kWalnutWood);
-    list.push_back({"poster", w + 0.07f, h + 0.07f, 1.65f, [k, w, h, frame](SceneBuilder& b, MaterialLibrary& m, float s) {
-                      add_picture(b, m(MK::kPoster, k % 4), m(frame), s, 1.65f, w, h);
-                    }});
+    list.push_back(
+        {"poster", w + 0.07f, h + 0.07f, 1.65f, [k, w, h, frame](SceneBuilder& b, MaterialLibrary& m, float s) {
+           add_picture(b, m(MK::kPoster, k % 4), m(frame), s, 1.65f, w, h);
+         }});
   }
   return list;
 }
@@ -268,9 +265,9 @@ double seen_from_both(const MeshQuery& query, const Eigen::Vector3d& a, const Ei
   return hits ? double(shared) / hits : 0.0;
 }
 
-constexpr double kRigHeight = 1.1;        // the sensors' height above the floor
-constexpr double kAxisTop = 1.5;          // the rig's extent checked for clearance
-constexpr double kClearance = 0.6;        // axis to any surface: the cameras, <= 0.09 m off the axis, stay >= 0.5 m away
+constexpr double kRigHeight = 1.1;  // the sensors' height above the floor
+constexpr double kAxisTop = 1.5;    // the rig's extent checked for clearance
+constexpr double kClearance = 0.6;  // axis to any surface: the cameras, <= 0.09 m off the axis, stay >= 0.5 m away
 constexpr double kMinNeighbour = 1.5, kMaxNeighbour = 3.0;
 constexpr double kMinSharedView = 0.6;
 
@@ -318,8 +315,8 @@ GeneratedRoom generate_room(const RoomSpec& spec) {
     const int ceiling = m(office ? MK::kAcousticCeiling : MK::kCofferedCeiling);
     const float H = plan.height;
     for (const auto& [lo, hi] : plan.pieces) {
-      b.add_quad(Vec3(lo.x(), lo.y(), 0.f), Vec3(hi.x(), lo.y(), 0.f), Vec3(hi.x(), hi.y(), 0.f), Vec3(lo.x(), hi.y(), 0.f),
-                 floor);
+      b.add_quad(Vec3(lo.x(), lo.y(), 0.f), Vec3(hi.x(), lo.y(), 0.f), Vec3(hi.x(), hi.y(), 0.f),
+                 Vec3(lo.x(), hi.y(), 0.f), floor);
       b.add_quad(Vec3(lo.x(), lo.y(), H), Vec3(lo.x(), hi.y(), H), Vec3(hi.x(), hi.y(), H), Vec3(hi.x(), lo.y(), H),
                  ceiling);
     }
@@ -412,8 +409,8 @@ GeneratedRoom generate_room(const RoomSpec& spec) {
         piece.draw(b, m, furniture_rng);
         b.pop();
         Vec3 lo, hi;
-        bool fits = b.bounds_since(first, &lo, &hi) && plan.contains(lo.head<2>(), hi.head<2>(), 0.005f) &&
-                    hi.z() < H - 0.05f;
+        bool fits =
+            b.bounds_since(first, &lo, &hi) && plan.contains(lo.head<2>(), hi.head<2>(), 0.005f) && hi.z() < H - 0.05f;
         const Box3 box{lo, hi};
         for (std::size_t o = 0; fits && o < obstacles.size(); ++o) fits = !box.overlaps(obstacles[o], 0.05f);
         if (!fits) {
@@ -454,7 +451,8 @@ GeneratedRoom generate_room(const RoomSpec& spec) {
     std::vector<PointLight> lights;
     for (const auto& [lo, hi] : plan.pieces) {
       const Vec2 size = hi - lo;
-      const int nx = std::max(1, int(std::lround(size.x() / 2.5f))), ny = std::max(1, int(std::lround(size.y() / 2.5f)));
+      const int nx = std::max(1, int(std::lround(size.x() / 2.5f))),
+                ny = std::max(1, int(std::lround(size.y() / 2.5f)));
       for (int i = 0; i < nx; ++i)
         for (int j = 0; j < ny; ++j) {
           const float x = lo.x() + size.x() * (i + 0.5f) / nx, y = lo.y() + size.y() * (j + 0.5f) / ny;
@@ -492,8 +490,7 @@ GeneratedRoom generate_room(const RoomSpec& spec) {
       }
     if (free.size() < 2) continue;
     // A seeded shuffle (Fisher-Yates with our own stream: the same on every standard library).
-    for (std::size_t i = free.size() - 1; i > 0; --i)
-      std::swap(free[i], free[std::size_t(rng.uniform_int(0, int(i)))]);
+    for (std::size_t i = free.size() - 1; i > 0; --i) std::swap(free[i], free[std::size_t(rng.uniform_int(0, int(i)))]);
     const int wanted = std::clamp(int(std::lround(plan.area() / 9.0)) + rng.uniform_int(0, 1), 2, 6);
     auto eye = [](const Eigen::Vector2d& p) { return Eigen::Vector3d(p.x(), p.y(), kRigHeight); };
     std::vector<Eigen::Vector2d> best;

@@ -121,9 +121,7 @@ double MotionModel::ramp_derivative(double t) const {
   return 0.0;
 }
 
-double MotionModel::raw_velocity(double t) const {
-  return cruise_velocity_ * ramp(t) * (1.0 + sum(speed_terms_, t));
-}
+double MotionModel::raw_velocity(double t) const { return cruise_velocity_ * ramp(t) * (1.0 + sum(speed_terms_, t)); }
 
 double MotionModel::azimuth(double t) const {
   if (t <= 0.0) return 0.0;

@@ -90,16 +90,19 @@ SimOptions sim_options_from_config(Config& c) {
   o.motion.period_s = c.get_double("motion.period_s", o.motion.period_s, 0.1, 3600.0);
   o.motion.ramp_s = c.get_double("motion.ramp_s", o.motion.ramp_s, 0.0, 60.0);
   o.motion.accel_std_deg_s2 = c.get_double("motion.accel_std_deg_s2", o.motion.accel_std_deg_s2, 0.0, 100.0);
-  const auto speed_band = c.get_doubles("motion.speed_band_hz", {o.motion.speed_band_low_hz, o.motion.speed_band_high_hz}, 2);
+  const auto speed_band =
+      c.get_doubles("motion.speed_band_hz", {o.motion.speed_band_low_hz, o.motion.speed_band_high_hz}, 2);
   o.motion.speed_band_low_hz = speed_band[0];
   o.motion.speed_band_high_hz = speed_band[1];
   o.motion.wobble_translation_m = c.get_double("motion.wobble_translation_m", o.motion.wobble_translation_m, 0.0, 0.5);
   o.motion.wobble_rotation_deg = c.get_double("motion.wobble_rotation_deg", o.motion.wobble_rotation_deg, 0.0, 20.0);
-  const auto wobble_band = c.get_doubles("motion.wobble_band_hz", {o.motion.wobble_band_low_hz, o.motion.wobble_band_high_hz}, 2);
+  const auto wobble_band =
+      c.get_doubles("motion.wobble_band_hz", {o.motion.wobble_band_low_hz, o.motion.wobble_band_high_hz}, 2);
   o.motion.wobble_band_low_hz = wobble_band[0];
   o.motion.wobble_band_high_hz = wobble_band[1];
   o.motion.axis_tilt_deg = c.get_double("motion.axis_tilt_deg", o.motion.axis_tilt_deg, 0.0, 10.0);
-  o.motion.axis_tilt_azimuth_deg = c.get_double("motion.axis_tilt_azimuth_deg", o.motion.axis_tilt_azimuth_deg, -360.0, 360.0);
+  o.motion.axis_tilt_azimuth_deg =
+      c.get_double("motion.axis_tilt_azimuth_deg", o.motion.axis_tilt_azimuth_deg, -360.0, 360.0);
 
   o.shutter.fps = c.get_double("shutter.fps", o.shutter.fps, 1e-3, 1000.0);
   o.shutter.jitter_ms = c.get_double("shutter.jitter_ms", o.shutter.jitter_ms, 0.0, 100.0);

@@ -97,7 +97,8 @@ struct Renderer::Impl {
       if (texture < 0) continue;
       const Eigen::Vector3i& tri = mesh.triangles[t];
       const float world_area =
-          0.5f * (mesh.vertices[tri[1]] - mesh.vertices[tri[0]]).cross(mesh.vertices[tri[2]] - mesh.vertices[tri[0]]).norm();
+          0.5f *
+          (mesh.vertices[tri[1]] - mesh.vertices[tri[0]]).cross(mesh.vertices[tri[2]] - mesh.vertices[tri[0]]).norm();
       const Eigen::Vector2f e1 = mesh.corner_uvs[3 * t + 1] - mesh.corner_uvs[3 * t];
       const Eigen::Vector2f e2 = mesh.corner_uvs[3 * t + 2] - mesh.corner_uvs[3 * t];
       const float texel_area = 0.5f * std::abs(e1.x() * e2.y() - e1.y() * e2.x()) * scene.textures[texture].width *
@@ -151,7 +152,8 @@ struct Renderer::Impl {
 Renderer::Renderer(const Scene& scene) : impl_(std::make_unique<Impl>(scene)) {
   scene.check("<scene " + scene.name + ">");
   impl_->device = rtcNewDevice(nullptr);
-  if (!impl_->device) throw Error("Embree: cannot create a device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
+  if (!impl_->device)
+    throw Error("Embree: cannot create a device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
   impl_->rtc_scene = rtcNewScene(impl_->device);
   rtcSetSceneBuildQuality(impl_->rtc_scene, RTC_BUILD_QUALITY_HIGH);
   RTCGeometry geometry = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
@@ -351,8 +353,8 @@ std::size_t Renderer::intersect_only(const Rigid3d& world_from_cam, const Pinhol
   return hits;
 }
 
-std::size_t Renderer::intersect_only_packets(const Rigid3d& world_from_cam, const PinholeIntrinsics& k,
-                                             int row_begin, int row_end) const {
+std::size_t Renderer::intersect_only_packets(const Rigid3d& world_from_cam, const PinholeIntrinsics& k, int row_begin,
+                                             int row_end) const {
   const Eigen::Matrix3f rotation = world_from_cam.linear().cast<float>();
   const Eigen::Vector3f origin = world_from_cam.translation().cast<float>();
   RTCIntersectContext context;

@@ -56,9 +56,9 @@ RigModel make_rig(const RigOptions& options, std::uint64_t seed) {
                                             Eigen::AngleAxisd(deg2rad(rpy[1]), Eigen::Vector3d::UnitY()) *
                                             Eigen::AngleAxisd(deg2rad(rpy[0]), Eigen::Vector3d::UnitX()))
                                                .toRotationMatrix();
-  rig.axis_from_bracket = make_rigid(install_rotation, Eigen::Vector3d(options.install_offset_m[0],
-                                                                       options.install_offset_m[1],
-                                                                       options.install_offset_m[2]));
+  rig.axis_from_bracket = make_rigid(
+      install_rotation,
+      Eigen::Vector3d(options.install_offset_m[0], options.install_offset_m[1], options.install_offset_m[2]));
   const int n = static_cast<int>(options.pitches_deg.size());
   const double middle = 0.5 * (n - 1);
   for (int c = 0; c < n; ++c) {

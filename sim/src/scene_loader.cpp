@@ -170,7 +170,8 @@ Scene load_scene_file(const fs::path& path) {
   // JoinIdenticalVertices ignores colours and would merge corners of differently coloured faces
   // (fixed upstream in assimp PR #4872, 2023). The renderer needs no shared vertices.
   bool coloured_meshes = false;
-  for (unsigned m = 0; m < imported->mNumMeshes; ++m) coloured_meshes = coloured_meshes || imported->mMeshes[m]->HasVertexColors(0);
+  for (unsigned m = 0; m < imported->mNumMeshes; ++m)
+    coloured_meshes = coloured_meshes || imported->mMeshes[m]->HasVertexColors(0);
   if (!coloured_meshes) {
     imported = importer.ApplyPostProcessing(aiProcess_JoinIdenticalVertices);
     if (!imported) throw make_error(file, "", std::string("assimp cannot read it: ") + importer.GetErrorString());

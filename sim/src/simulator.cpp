@@ -18,7 +18,6 @@ namespace panoscan {
 
 namespace {
 
-
 nlohmann::json vec_json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
 ScanPosition checked_position(const Scene& scene, int position_index) {
@@ -89,9 +88,8 @@ std::string Simulator::rig_truth_json() const {
   const auto& reference_frames = schedule_[rig_.reference_sensor];
   if (!reference_frames.empty()) {
     const double t0 = reference_frames.front().timestamp;
-    j["axis_in_reference_first_frame"] =
-        pose_to_json(world_from_cam(rig_.reference_sensor, t0).inverse() *
-                  motion_.world_from_axis(t0 - options_.shutter.start_time_s));
+    j["axis_in_reference_first_frame"] = pose_to_json(world_from_cam(rig_.reference_sensor, t0).inverse() *
+                                                      motion_.world_from_axis(t0 - options_.shutter.start_time_s));
   }
   j["reference_sensor"] = rig_.reference_sensor;
   for (std::size_t c = 0; c < rig_.num_sensors(); ++c) {
@@ -114,7 +112,8 @@ std::string Simulator::rig_truth_json() const {
                  {"axis_tilt_deg", m.axis_tilt_deg},
                  {"axis_tilt_azimuth_deg", m.axis_tilt_azimuth_deg}};
   const auto& s = options_.shutter;
-  j["shutter"] = {{"fps", s.fps}, {"jitter_ms", s.jitter_ms}, {"drift_ppm", s.drift_ppm}, {"start_time_s", s.start_time_s}};
+  j["shutter"] = {
+      {"fps", s.fps}, {"jitter_ms", s.jitter_ms}, {"drift_ppm", s.drift_ppm}, {"start_time_s", s.start_time_s}};
   const auto& n = options_.noise;
   j["noise"] = {{"preset", to_string(n.preset)},
                 {"min_depth_m", n.min_depth_m},
@@ -172,7 +171,8 @@ SimulatedFrame Simulator::render_frame(const FrameTime& frame) const {
       // Per camera, constant over the scan (auto-exposure locked after start).
       RandomStream rng(options_.seed, frame.sensor, -1, RandomPurpose::kColour);
       const double exposure = std::max(0.2, 1.0 + rng.normal() * noise.exposure_std);
-      for (int c = 0; c < 3; ++c) gain[c] = float(exposure * std::max(0.2, 1.0 + rng.normal() * noise.white_balance_std));
+      for (int c = 0; c < 3; ++c)
+        gain[c] = float(exposure * std::max(0.2, 1.0 + rng.normal() * noise.white_balance_std));
     }
     RandomStream pixel_rng(options_.seed, frame.sensor, frame.index, RandomPurpose::kColour);
     for (std::size_t i = 0; i < view.rgb.data.size(); ++i) {

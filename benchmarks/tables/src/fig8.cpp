@@ -10,8 +10,8 @@
 // (tracking_eval.h, stride 8 px at 320 columns, pose-aligned), the optimisation time
 // (initialisation + Ceres solve, s) and the front end's time (s), with the options' threads.
 // Outputs besides the tables: fig8_sweep.csv and, when python3 is available (/usr/bin/python3
-// first, Debian's, with matplotlib), fig8.png drawn by scripts/plot_fig8.py (found through $PANOSCAN_SOURCE_DIR, the working folder, or the folders
-// above the executable).
+// first, Debian's, with matplotlib), fig8.png drawn by scripts/plot_fig8.py (found through $PANOSCAN_SOURCE_DIR, the
+// working folder, or the folders above the executable).
 
 #include <cmath>
 #include <cstdlib>
@@ -96,10 +96,12 @@ TableRun run_fig8(const TablesOptions& options) {
   }
 
   eval::ResultTable stitched, ate, solve, frontend;
-  stitched.title = fmt::format("Fig. 8: stitched ground-truth depth RMSE of all cameras against n ({} size)", preset.name);
+  stitched.title =
+      fmt::format("Fig. 8: stitched ground-truth depth RMSE of all cameras against n ({} size)", preset.name);
   ate.title = fmt::format("Fig. 8 (ATE): mean ATE of the three cameras against n ({} size)", preset.name);
-  solve.title = fmt::format("Fig. 8 (time): optimisation time per panorama (initialisation + solve) against n ({} size, {} threads)",
-                            preset.name, options.threads > 0 ? std::to_string(options.threads) : "all");
+  solve.title = fmt::format(
+      "Fig. 8 (time): optimisation time per panorama (initialisation + solve) against n ({} size, {} threads)",
+      preset.name, options.threads > 0 ? std::to_string(options.threads) : "all");
   frontend.title = fmt::format("Fig. 8 (front end): front-end time per panorama against n ({} size)", preset.name);
   stitched.decimals = ate.decimals = solve.decimals = frontend.decimals = 2;
   solve.unit = frontend.unit = "s";
@@ -128,7 +130,8 @@ TableRun run_fig8(const TablesOptions& options) {
       const TrackingResult result = track_scan(scan, tracking);
       // The sweep records every n (where tracking breaks down is its result) and names the failed check.
       if (!result.verdict.reliable)
-        run.notes.push_back(fmt::format("{} n = {}: self-check UNRELIABLE ({})", label, n, result.verdict.first_failure()));
+        run.notes.push_back(
+            fmt::format("{} n = {}: self-check UNRELIABLE ({})", label, n, result.verdict.first_failure()));
       double mean_ate = 0;
       for (int s : all) mean_ate += tracking_eval::ate_m(truth, result.trajectory, s) / double(all.size());
       const Rigid3d alignment = tracking_eval::pose_alignment(truth, result.trajectory, all);
@@ -140,8 +143,8 @@ TableRun run_fig8(const TablesOptions& options) {
       solve.set(label, column, optimisation);
       frontend.set(label, column, result.stats.frontend_seconds);
       csv += fmt::format("{},{},{},{},{:.4f},{:.4f},{:.4f},{:.4f},{},{}\n", label, n, result.stats.frames,
-                         result.stats.landmarks, 1e3 * mean_ate, 1e3 * rmse, optimisation, result.stats.frontend_seconds,
-                         result.stats.iterations, result.stats.converged ? 1 : 0);
+                         result.stats.landmarks, 1e3 * mean_ate, 1e3 * rmse, optimisation,
+                         result.stats.frontend_seconds, result.stats.iterations, result.stats.converged ? 1 : 0);
       log_info(fmt::format("fig8 {} n = {}: {} frames, ATE {:.2f} mm, stitched {:.2f} mm, optimisation {:.2f} s", label,
                            n, result.stats.frames, 1e3 * mean_ate, 1e3 * rmse, optimisation));
       if (!result.stats.converged)
@@ -150,8 +153,9 @@ TableRun run_fig8(const TablesOptions& options) {
   }
   run.tables = {stitched, ate, solve, frontend};
   run.notes.push_back(fmt::format("Dense scans simulated at every = {} and subsampled (fig8.cpp).", n_min));
-  run.notes.push_back("Paper (640x480, 6-core CPU): RMSE rises slightly with n while the optimisation time falls by orders "
-                      "of magnitude; n > 16 is where the paper calls the optimisation cost acceptable online.");
+  run.notes.push_back(
+      "Paper (640x480, 6-core CPU): RMSE rises slightly with n while the optimisation time falls by orders "
+      "of magnitude; n > 16 is where the paper calls the optimisation cost acceptable online.");
 
   if (!options.out.empty()) {
     const fs::path out_dir = options.out / "fig8";
@@ -161,12 +165,13 @@ TableRun run_fig8(const TablesOptions& options) {
     // Debian's interpreter first: it has python3-matplotlib (a python3 earlier on PATH, e.g. pyenv's, may not).
     const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
     if (std::system(("command -v " + python + " > /dev/null 2>&1").c_str()) != 0) {
-      run.notes.push_back("python3 not found: fig8.png not drawn (scripts/plot_fig8.py fig8_sweep.csv fig8.png draws it)");
+      run.notes.push_back(
+          "python3 not found: fig8.png not drawn (scripts/plot_fig8.py fig8_sweep.csv fig8.png draws it)");
     } else if (script.empty()) {
       run.notes.push_back("scripts/plot_fig8.py not found (set PANOSCAN_SOURCE_DIR): fig8.png not drawn");
     } else {
-      const std::string command = fmt::format("{} '{}' '{}' '{}'", python, script.string(), (out_dir / "fig8_sweep.csv").string(),
-                                              (out_dir / "fig8.png").string());
+      const std::string command = fmt::format("{} '{}' '{}' '{}'", python, script.string(),
+                                              (out_dir / "fig8_sweep.csv").string(), (out_dir / "fig8.png").string());
       if (std::system(command.c_str()) == 0)
         run.notes.push_back("Plot: fig8.png (scripts/plot_fig8.py)");
       else

@@ -1,7 +1,6 @@
 // Shared parts of the stage-2 drivers (table4.cpp, table5.cpp); see stage2_common.h.
 #include "stage2_common.h"
 
-
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -30,8 +29,8 @@ Panorama cached_panorama(const std::string& label, const TablesOptions& options,
   const fs::path cache = (options.cache.empty() ? options.out / "scans" : options.cache) / "panoramas";
   fs::create_directories(cache);
   // The scan's key (its folder name) names the scan; the rest names what changes the panorama.
-  const std::string key = fmt::format("{}_{}_tsa_H{}", scan_dir.filename().string(), tracked ? "tracked" : "gt",
-                                      preset.panorama_height);
+  const std::string key =
+      fmt::format("{}_{}_tsa_H{}", scan_dir.filename().string(), tracked ? "tracked" : "gt", preset.panorama_height);
   const fs::path dir = cache / key;
   CacheLock lock(cache / (key + ".lock"));
   if (fs::exists(dir / "panorama.json")) return read_panorama(dir);
@@ -75,9 +74,12 @@ Panorama tracked_panorama(const std::string& label, const TablesOptions& options
 
 std::unique_ptr<eval::MeshDistance> scene_mesh(const std::string& label) {
   std::string scene;
-  if (label.rfind("SL", 0) == 0) scene = "living_room";
-  else if (label.rfind("SO", 0) == 0) scene = "office";
-  else throw make_error("scan", label, "unknown built-in scan label (expected SL-... or SO-...)");
+  if (label.rfind("SL", 0) == 0)
+    scene = "living_room";
+  else if (label.rfind("SO", 0) == 0)
+    scene = "office";
+  else
+    throw make_error("scan", label, "unknown built-in scan label (expected SL-... or SO-...)");
   return std::make_unique<eval::MeshDistance>(scenes::make_builtin_scene(scene).mesh, scene);
 }
 

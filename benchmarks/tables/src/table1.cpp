@@ -50,9 +50,9 @@ const char* const kOursSurfels3 = "Ours (Surfels-3m)";
 const char* const kExStitched = "EX + Open3D odometry (outside stand-in for ORB-SLAM2)";
 const char* const kGtStitched = "GT + Open3D odometry (outside stand-in for ORB-SLAM2)";
 
-
 // RMSE (mm) of the points, moved by scene_from_recon, against the mesh.
-double rmse_mm(const eval::MeshDistance& mesh, const std::vector<Eigen::Vector3d>& points, const Rigid3d& scene_from_recon) {
+double rmse_mm(const eval::MeshDistance& mesh, const std::vector<Eigen::Vector3d>& points,
+               const Rigid3d& scene_from_recon) {
   if (points.empty()) return std::nan("");
   std::vector<Eigen::Vector3d> moved;
   moved.reserve(points.size());
@@ -62,12 +62,14 @@ double rmse_mm(const eval::MeshDistance& mesh, const std::vector<Eigen::Vector3d
 
 // The largest rotation (deg) and translation (mm) error of estimated poses against the truth, both
 // taken relative to their first pose (the frames are tied there): a note on what the tracker did.
-std::pair<double, double> max_pose_error(const std::vector<StampedPose>& estimated, const std::vector<StampedPose>& truth) {
+std::pair<double, double> max_pose_error(const std::vector<StampedPose>& estimated,
+                                         const std::vector<StampedPose>& truth) {
   double angle = 0, translation = 0;
   const Rigid3d estimated_first = estimated.front().world_from_cam.inverse();
   const Rigid3d truth_first = truth.front().world_from_cam.inverse();
   for (std::size_t i = 0; i < std::min(estimated.size(), truth.size()); ++i) {
-    const Rigid3d error = (truth_first * truth[i].world_from_cam).inverse() * (estimated_first * estimated[i].world_from_cam);
+    const Rigid3d error =
+        (truth_first * truth[i].world_from_cam).inverse() * (estimated_first * estimated[i].world_from_cam);
     angle = std::max(angle, Eigen::AngleAxisd(error.rotation()).angle() * 180.0 / M_PI);
     translation = std::max(translation, error.translation().norm() * 1e3);
   }
@@ -89,8 +91,9 @@ std::vector<std::string> table1_scans(const TablesOptions& options, const SizePr
 // A temporary work folder for the stitched scans, removed with its contents.
 class WorkDir {
  public:
-  explicit WorkDir(const fs::path& parent)
-      : path_(parent / fmt::format("table1-work-{}", ::getpid())) { fs::create_directories(path_); }
+  explicit WorkDir(const fs::path& parent) : path_(parent / fmt::format("table1-work-{}", ::getpid())) {
+    fs::create_directories(path_);
+  }
   ~WorkDir() {
     std::error_code ignored;
     fs::remove_all(path_, ignored);
@@ -135,8 +138,8 @@ TableRun run_table1(const TablesOptions& options) {
     const TrackingResult tracked = track_scan(scan, tracking);
     require_reliable_tracking(tracked, tracking, label);
     const double tracking_s = seconds_since(start);
-    const Rigid3d scene_from_tracked = eval::scene_from_reconstruction(truth.world_from_cam[std::size_t(reference)],
-                                                                       tracked.trajectory.world_from_cam[std::size_t(reference)]);
+    const Rigid3d scene_from_tracked = eval::scene_from_reconstruction(
+        truth.world_from_cam[std::size_t(reference)], tracked.trajectory.world_from_cam[std::size_t(reference)]);
     start = std::chrono::steady_clock::now();
     const TsdfResult ours_tsdf = build_tsdf_baseline(scan, tracked.trajectory, tsdf);
     table.set(kOursTsdf, label, rmse_mm(mesh, ours_tsdf.vertices.positions, scene_from_tracked));
@@ -150,13 +153,13 @@ TableRun run_table1(const TablesOptions& options) {
                 rmse_mm(mesh, fused.surfels.positions, scene_from_tracked));
     }
     const double surfels_s = seconds_since(start);
-    const auto [ours_angle, ours_translation] = max_pose_error(tracked.trajectory.world_from_cam[std::size_t(reference)],
-                                                               truth.world_from_cam[std::size_t(reference)]);
-    run.notes.push_back(fmt::format("{}: ours tracked {} frames in {:.1f} s ({}; reference camera's largest error "
-                                    "{:.2f} deg, {:.0f} mm), TSDF {:.1f} s ({} vertices), surfels (4 m + 3 m) {:.1f} s",
-                                    label, tracked.stats.frames, tracking_s,
-                                    tracked.stats.converged ? "converged" : "NOT converged", ours_angle, ours_translation,
-                                    tsdf_s, ours_tsdf.vertices.size(), surfels_s));
+    const auto [ours_angle, ours_translation] = max_pose_error(
+        tracked.trajectory.world_from_cam[std::size_t(reference)], truth.world_from_cam[std::size_t(reference)]);
+    run.notes.push_back(
+        fmt::format("{}: ours tracked {} frames in {:.1f} s ({}; reference camera's largest error "
+                    "{:.2f} deg, {:.0f} mm), TSDF {:.1f} s ({} vertices), surfels (4 m + 3 m) {:.1f} s",
+                    label, tracked.stats.frames, tracking_s, tracked.stats.converged ? "converged" : "NOT converged",
+                    ours_angle, ours_translation, tsdf_s, ours_tsdf.vertices.size(), surfels_s));
 
 #ifdef PANOSCAN_TABLE1_PRESTITCHED
     // The pre-stitched baselines: "EX" (calibrated extrinsics) and "GT" (true relative poses).
@@ -166,12 +169,12 @@ TableRun run_table1(const TablesOptions& options) {
     prestitched.tsdf = tsdf;
     for (const bool ground_truth : {false, true}) {
       start = std::chrono::steady_clock::now();
-      const PrestitchedResult baseline = run_prestitched_baseline(
-          scan, work.path() / (ground_truth ? "gt" : "ex"), prestitched, ground_truth ? &truth : nullptr);
+      const PrestitchedResult baseline = run_prestitched_baseline(scan, work.path() / (ground_truth ? "gt" : "ex"),
+                                                                  prestitched, ground_truth ? &truth : nullptr);
       // The stitched camera is the reference camera: its first frame is the odometry's origin.
       // The stitched sequence's camera is the reference camera (its first frame).
-      const Rigid3d scene_from_stitched = eval::scene_from_reconstruction(truth.world_from_cam[std::size_t(reference)],
-                                                                          baseline.odometry.trajectory.world_from_cam[0]);
+      const Rigid3d scene_from_stitched = eval::scene_from_reconstruction(
+          truth.world_from_cam[std::size_t(reference)], baseline.odometry.trajectory.world_from_cam[0]);
       table.set(ground_truth ? kGtStitched : kExStitched, label,
                 rmse_mm(mesh, baseline.tsdf.vertices.positions, scene_from_stitched));
       const PinholeIntrinsics& k = baseline.stitched.intrinsics;
@@ -187,8 +190,9 @@ TableRun run_table1(const TablesOptions& options) {
           baseline.stitched.seconds, baseline.odometry.seconds));
     }
 #else
-    run.notes.push_back(label + ": the pre-stitched EX / GT rows need the recon 'baselines' stage, which this build "
-                                "folder does not build (reconfigure with -U PANOSCAN_RECON_STAGES)");
+    run.notes.push_back(label +
+                        ": the pre-stitched EX / GT rows need the recon 'baselines' stage, which this build "
+                        "folder does not build (reconfigure with -U PANOSCAN_RECON_STAGES)");
 #endif
   }
   run.tables.push_back(table);

@@ -32,7 +32,6 @@
 
 namespace panoscan::tables {
 
-
 namespace {
 
 using namespace tracking_eval;
@@ -80,16 +79,18 @@ TableRun run_table2(const TablesOptions& options) {
       stitched.set(row, label, 1e3 * stitched_rmse_m(points, result.trajectory, middle_alignment, mesh, {middle}));
       ate.set(row, label, 1e3 * ate_m(truth, result.trajectory, middle));
       const Rigid3d alignment = pose_alignment(truth, result.trajectory, rig ? all : std::vector<int>{middle});
-      axis.set(row, label, eval::axis_error(eval::axis_line(alignment * result.trajectory.world_from_axis),
-                                            eval::axis_line(truth.world_from_axis)).angle_deg);
+      axis.set(row, label,
+               eval::axis_error(eval::axis_line(alignment * result.trajectory.world_from_axis),
+                                eval::axis_line(truth.world_from_axis))
+                   .angle_deg);
       if (all_row) {
         const Rigid3d all_alignment = pose_alignment(truth, result.trajectory, all);
         stitched.set(all_row, label, 1e3 * stitched_rmse_m(points, result.trajectory, all_alignment, mesh, all));
       }
-      run.notes.push_back(fmt::format("{} {}: {} iterations, solve {:.2f} s, {}; self-check: {}", label, row,
-                                      result.stats.iterations, result.stats.solve_seconds,
-                                      result.stats.converged ? "converged" : result.stats.termination,
-                                      result.verdict.reliable ? "reliable" : "UNRELIABLE (" + result.verdict.first_failure() + ")"));
+      run.notes.push_back(
+          fmt::format("{} {}: {} iterations, solve {:.2f} s, {}; self-check: {}", label, row, result.stats.iterations,
+                      result.stats.solve_seconds, result.stats.converged ? "converged" : result.stats.termination,
+                      result.verdict.reliable ? "reliable" : "UNRELIABLE (" + result.verdict.first_failure() + ")"));
     };
     TrackingOptions ba = tracking;
     ba.mode = TrackingMode::kBaOnly;
@@ -111,8 +112,9 @@ TableRun run_table2(const TablesOptions& options) {
   run.notes.push_back(
       "Stitched ground-truth depth: noisy depth snapped to the mesh through the true pose (stride 4 px at 320 "
       "columns), placed with the estimated pose; pose alignment of the evaluated camera(s) (see tracking_eval.h).");
-  run.settings_json = fmt::format(R"({{"tracking": {{"pose_regularisation": {}, "velocity_smoothness": {}, "threads": {}}}}})",
-                                  tracking.pose_regularisation, tracking.velocity_smoothness, options.threads);
+  run.settings_json =
+      fmt::format(R"({{"tracking": {{"pose_regularisation": {}, "velocity_smoothness": {}, "threads": {}}}}})",
+                  tracking.pose_regularisation, tracking.velocity_smoothness, options.threads);
   return run;
 }
 

@@ -57,8 +57,10 @@ std::vector<Eigen::Vector3d> depth_image_points(const ImageF32& depth, const Rig
 std::string slug(const std::string& name) {
   std::string out;
   for (const char c : name) {
-    if (std::isalnum(static_cast<unsigned char>(c)) || c == '-') out += char(std::tolower(static_cast<unsigned char>(c)));
-    else if (!out.empty() && out.back() != '_') out += '_';
+    if (std::isalnum(static_cast<unsigned char>(c)) || c == '-')
+      out += char(std::tolower(static_cast<unsigned char>(c)));
+    else if (!out.empty() && out.back() != '_')
+      out += '_';
   }
   while (!out.empty() && out.back() == '_') out.pop_back();
   return out;
@@ -75,8 +77,10 @@ struct PanoramaRow {
   DepthFusionMethod method;
 };
 constexpr PanoramaRow kPanoramaRows[] = {
-    {"ERP Ave.", DepthFusionMethod::kAverage},     {"ERP TV-L1", DepthFusionMethod::kTvCylindrical},
-    {"ERP TSA-L1", DepthFusionMethod::kTsa},       {"ERP TP-L1", DepthFusionMethod::kTp},
+    {"ERP Ave.", DepthFusionMethod::kAverage},
+    {"ERP TV-L1", DepthFusionMethod::kTvCylindrical},
+    {"ERP TSA-L1", DepthFusionMethod::kTsa},
+    {"ERP TP-L1", DepthFusionMethod::kTp},
     {"ERP TV-L1 (radial)", DepthFusionMethod::kTvRadial},
 };
 
@@ -98,22 +102,24 @@ void write_views(const std::filesystem::path& dir, const std::string& label,
     eval::write_panorama_error_png(dir / file, error, range_m);
     files.push_back(file);
   }
-  run.notes.push_back(fmt::format("Views of {} (views/): {}; coolwarm, blue = too near, red = too far, black = no depth, "
-                                  "scale +-{:.1f} mm (95th percentile of |error| of ERP Ave.)",
-                                  label, fmt::join(files, ", "), 1e3 * range_m));
+  run.notes.push_back(
+      fmt::format("Views of {} (views/): {}; coolwarm, blue = too near, red = too far, black = no depth, "
+                  "scale +-{:.1f} mm (95th percentile of |error| of ERP Ave.)",
+                  label, fmt::join(files, ", "), 1e3 * range_m));
 }
 
 // What the driver runs; the defaults are the table's.
 struct Table3Settings {
-  FusionOptions fusion;   // method set per row; lambda_b etc. the defaults
+  FusionOptions fusion;  // method set per row; lambda_b etc. the defaults
 };
 
 TableRun run_table3(const TablesOptions& options, const Table3Settings& settings) {
   const SizePreset preset = size_preset(options.size);
   eval::ResultTable all, unflagged, ratio, seconds;
-  all.title = fmt::format("Table 3: RMSE of each integration method against the ground-truth mesh ({} size, "
-                          "ground-truth poses, panoramas: every pixel)",
-                          preset.name);
+  all.title = fmt::format(
+      "Table 3: RMSE of each integration method against the ground-truth mesh ({} size, "
+      "ground-truth poses, panoramas: every pixel)",
+      preset.name);
   all.decimals = 2;
   unflagged.title = "Table 3b: panorama rows without the flagged pixels (sigma_z > 0.15 m)";
   unflagged.decimals = 2;
@@ -124,11 +130,13 @@ TableRun run_table3(const TablesOptions& options, const Table3Settings& settings
   // Per pixel against the ground-truth panorama: the median (an RMSE over pixels is ruled by the few
   // pixels at depth edges that take the other side of the edge, metres off) and that share.
   eval::ResultTable per_pixel, edge_share;
-  per_pixel.title = "Table 3e: median per-pixel |radial-depth error| against the ground-truth panorama ray-cast from "
-                    "the same centre (every pixel with depth in both)";
+  per_pixel.title =
+      "Table 3e: median per-pixel |radial-depth error| against the ground-truth panorama ray-cast from "
+      "the same centre (every pixel with depth in both)";
   per_pixel.decimals = 2;
-  edge_share.title = "Table 3f: pixels off by more than lambda_a = 0.15 m against the ground-truth panorama (the "
-                     "other side of a depth edge)";
+  edge_share.title =
+      "Table 3f: pixels off by more than lambda_a = 0.15 m against the ground-truth panorama (the "
+      "other side of a depth edge)";
   edge_share.unit = "%";
   edge_share.decimals = 2;
   seconds.title = "Table 3d: time (s)";
@@ -187,10 +195,10 @@ TableRun run_table3(const TablesOptions& options, const Table3Settings& settings
         if (!p.energy.empty()) {
           const EnergyRecord& e = p.energy.back();
           ratio.set(row.name, label, e.smoothness_weighted > 0 ? e.data / e.smoothness_weighted : 0.0);
-          run.notes.push_back(fmt::format("{} {}: lambda_b {:.4g} (mean {:.1f} measurements per pixel), {} iterations, "
-                                          "energy {:.6g} -> {:.6g}",
-                                          label, row.name, p.lambda, p.mean_count, p.energy.size() - 1,
-                                          p.energy.front().total(), e.total()));
+          run.notes.push_back(fmt::format(
+              "{} {}: lambda_b {:.4g} (mean {:.1f} measurements per pixel), {} iterations, "
+              "energy {:.6g} -> {:.6g}",
+              label, row.name, p.lambda, p.mean_count, p.energy.size() - 1, p.energy.front().total(), e.total()));
         }
       }
       if (!options.out.empty() && !errors.empty()) write_views(options.out / "table3" / "views", label, errors, run);

@@ -90,8 +90,8 @@ void add_table4(const TablesOptions& options, bool tracked, TableRun& run) {
 
     const FeatureAlignment guess = panorama_feature_guess(source, target, registration.features);
     if (!guess.success) {
-      run.notes.push_back(fmt::format("{} ({} poses): the ORB guess failed ({}); no registration", pair, poses,
-                                      guess.failure));
+      run.notes.push_back(
+          fmt::format("{} ({} poses): the ORB guess failed ({}); no registration", pair, poses, guess.failure));
       continue;
     }
     const RegistrationCloud source_measured = panorama_registration_cloud(source, registration.cloud);
@@ -132,17 +132,18 @@ void add_table4(const TablesOptions& options, bool tracked, TableRun& run) {
     auto displacement_mm = [&](const Rigid3d& target_from_source) {
       std::vector<double> displacement;
       displacement.reserve(source_points.size());
-      for (const Eigen::Vector3d& p : source_points) displacement.push_back((target_from_source * p - truth * p).norm());
+      for (const Eigen::Vector3d& p : source_points)
+        displacement.push_back((target_from_source * p - truth * p).norm());
       return eval::summarize_errors(std::move(displacement)).rmse * 1e3;
     };
 
     for (const Row& row : rows()) {
       IcpOptions icp = registration.icp;
       icp.method = row.method;
-      const RegistrationCloud& s = row.covariance == kMeasured ? source_measured
+      const RegistrationCloud& s = row.covariance == kMeasured                           ? source_measured
                                    : row.covariance == DepthCovarianceModel::kHandaModel ? source_handa
                                                                                          : source_constant;
-      const RegistrationCloud& t = row.covariance == kMeasured ? target_measured
+      const RegistrationCloud& t = row.covariance == kMeasured                           ? target_measured
                                    : row.covariance == DepthCovarianceModel::kHandaModel ? target_handa
                                                                                          : target_constant;
       IcpResult result;
@@ -164,9 +165,10 @@ void add_table4(const TablesOptions& options, bool tracked, TableRun& run) {
       seconds.set(row.name, pair, elapsed);
       const int consistent = count_consistent_matches(guess, estimate, registration.consistency_threshold_m);
       if (consistent < registration.min_consistent_fraction * guess.inliers)
-        run.notes.push_back(fmt::format("{} {} ({} poses): the pose explains only {} of {} ORB inliers (a wrong "
-                                        "registration)",
-                                        pair, row.name, poses, consistent, guess.inliers));
+        run.notes.push_back(
+            fmt::format("{} {} ({} poses): the pose explains only {} of {} ORB inliers (a wrong "
+                        "registration)",
+                        pair, row.name, poses, consistent, guess.inliers));
       log_info(fmt::format("table4: {} {}: {:.1f} s, {} iterations", pair, row.name, elapsed, result.iterations));
     }
     rmse.set(tracked ? "First-frame-aligned relative pose (reference)" : kTruthRow, pair, pair_rmse_mm(truth));
@@ -175,10 +177,11 @@ void add_table4(const TablesOptions& options, bool tracked, TableRun& run) {
                  rad2deg(rotation_angle(truth.linear().transpose() * guess.target_from_source.linear())));
     translation.set("ORB + RANSAC initial guess", pair,
                     (guess.target_from_source.translation() - truth.translation()).norm() * 1e3);
-    run.notes.push_back(fmt::format("{} ({} poses): {} and {} registration points, {} and {} pixels in the pair's "
-                                    "cloud; ORB guess from {} inliers",
-                                    pair, poses, source_measured.points.size(), target_measured.points.size(),
-                                    source_points.size(), target_points.size(), guess.inliers));
+    run.notes.push_back(
+        fmt::format("{} ({} poses): {} and {} registration points, {} and {} pixels in the pair's "
+                    "cloud; ORB guess from {} inliers",
+                    pair, poses, source_measured.points.size(), target_measured.points.size(), source_points.size(),
+                    target_points.size(), guess.inliers));
   }
   if (tracked) {
     // The pose errors need a true relative pose, which tracked panoramas do not have (each carries
@@ -204,8 +207,9 @@ void add_table4(const TablesOptions& options, bool tracked, TableRun& run) {
       "+ RANSAC guess. RMSE over every usable pixel of both panoramas (no cut-off).",
       registration.cloud.pixel_stride, registration.icp.max_correspondence_m, registration.icp.max_iterations,
       registration.cloud.max_sigma_m, registration.cloud.min_observations));
-  run.notes.push_back("PCL's and Open3D's GICP compute their own covariances from the same points (no measured "
-                      "variance); PCL is single-threaded. Times include no cloud preparation.");
+  run.notes.push_back(
+      "PCL's and Open3D's GICP compute their own covariances from the same points (no measured "
+      "variance); PCL is single-threaded. Times include no cloud preparation.");
   nlohmann::json settings = {{"poses", "ground-truth, then tracked"},
                              {"registration_pixel_stride", registration.cloud.pixel_stride},
                              {"max_correspondence_m", registration.icp.max_correspondence_m},

@@ -22,8 +22,9 @@ namespace panoscan::tables {
 namespace {
 
 const std::vector<std::pair<MergeMethod, std::string>>& rows() {
-  static const std::vector<std::pair<MergeMethod, std::string>> r = {
-      {MergeMethod::kAlignOnly, "Align only"}, {MergeMethod::kAverage, "Align + average"}, {MergeMethod::kMap, "Align + MAP"}};
+  static const std::vector<std::pair<MergeMethod, std::string>> r = {{MergeMethod::kAlignOnly, "Align only"},
+                                                                     {MergeMethod::kAverage, "Align + average"},
+                                                                     {MergeMethod::kMap, "Align + MAP"}};
   return r;
 }
 
@@ -103,8 +104,10 @@ void office_column(const TablesOptions& options, const PairRegistrationOptions& 
   };
   const EdgeDiscrepancy inconsistency_chained = result.inconsistency_chained;
   const EdgeDiscrepancy inconsistency_final = result.inconsistency_final;
-  const EdgeDiscrepancy error_chained = worst_pose_error(chained), error_final = worst_pose_error(result.world_from_panorama);
-  const std::string graph_row = result.pose_graph_used ? "Pose graph" : "Pose graph (not used: no redundant registration)";
+  const EdgeDiscrepancy error_chained = worst_pose_error(chained),
+                        error_final = worst_pose_error(result.world_from_panorama);
+  const std::string graph_row =
+      result.pose_graph_used ? "Pose graph" : "Pose graph (not used: no redundant registration)";
   graph.set("Chained registrations", "inconsistency (mm)", inconsistency_chained.translation_m * 1e3);
   graph.set("Chained registrations", "inconsistency (deg)", inconsistency_chained.rotation_deg);
   graph.set("Chained registrations", "pose error (mm)", error_chained.translation_m * 1e3);
@@ -153,17 +156,17 @@ TableRun run_table5(const TablesOptions& options) {
       continue;
     }
     const Rigid3d truth = target.world_from_pano.inverse() * source.world_from_pano;
-    run.notes.push_back(fmt::format("{}: GICP (Ours) registration error {:.4f} deg, {:.2f} mm", pair,
-                                    rad2deg(rotation_angle(truth.linear().transpose() *
-                                                           registered.target_from_source.linear())),
-                                    (registered.target_from_source.translation() - truth.translation()).norm() * 1e3));
+    run.notes.push_back(
+        fmt::format("{}: GICP (Ours) registration error {:.4f} deg, {:.2f} mm", pair,
+                    rad2deg(rotation_angle(truth.linear().transpose() * registered.target_from_source.linear())),
+                    (registered.target_from_source.translation() - truth.translation()).norm() * 1e3));
     const auto mesh = stage2::scene_mesh(source_label);
     integrate_column(pair, {target, source},
                      {target.world_from_pano, target.world_from_pano * registered.target_from_source}, *mesh, options,
                      tables, run);
   }
-  const bool office = options.size == "full" ||
-                      std::find(options.only.begin(), options.only.end(), "SO") != options.only.end();
+  const bool office =
+      options.size == "full" || std::find(options.only.begin(), options.only.end(), "SO") != options.only.end();
   if (office) office_column(options, registration, tables, graph, run);
   if (tables.rmse.methods.empty()) throw make_error("table5", "--only", "names no pair (e.g. SO-13) and not SO");
 

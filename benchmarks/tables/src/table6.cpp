@@ -18,7 +18,6 @@ namespace panoscan::tables {
 
 namespace {
 
-
 TableRun run_table6(const TablesOptions& options) {
   const SizePreset preset = size_preset(options.size);
   Config config;
@@ -27,8 +26,9 @@ TableRun run_table6(const TablesOptions& options) {
   const SceneOptions scene_options = scene_options_from_config(config);
 
   eval::ResultTable table;
-  table.title = fmt::format("Table 6: time per module ({} size, {} threads; per frame in ms, per panorama and per pair in s)",
-                            preset.name, options.threads > 0 ? std::to_string(options.threads) : "all");
+  table.title =
+      fmt::format("Table 6: time per module ({} size, {} threads; per frame in ms, per panorama and per pair in s)",
+                  preset.name, options.threads > 0 ? std::to_string(options.threads) : "all");
   table.unit = "ms | s";
   table.decimals = 2;
   TableRun run;
@@ -57,15 +57,15 @@ TableRun run_table6(const TablesOptions& options) {
     table.set(row, "Optimize, per panorama (s)", optimise_s / 2);
 
     auto start = std::chrono::steady_clock::now();
-    const PairRegistration registration = register_panorama_pair(
-        panoramas[1], panoramas[0], scene_options.registration, nullptr, source_label, target_label);
+    const PairRegistration registration = register_panorama_pair(panoramas[1], panoramas[0], scene_options.registration,
+                                                                 nullptr, source_label, target_label);
     table.set(row, "Align, per pair (s)", seconds_since(start));
 
     start = std::chrono::steady_clock::now();
     std::vector<PanoramaPoints> points;
     points.push_back(panorama_integration_points(panoramas[0], Rigid3d::Identity(), scene_options.registration.cloud));
-    points.push_back(panorama_integration_points(panoramas[1], registration.target_from_source,
-                                                 scene_options.registration.cloud));
+    points.push_back(
+        panorama_integration_points(panoramas[1], registration.target_from_source, scene_options.registration.cloud));
     const IntegrationResult merged = integrate_panoramas(points, scene_options.integration);
     table.set(row, "Integrate, per pair (s)", seconds_since(start));
     run.notes.push_back(fmt::format("{}: {} + {} points merged into {} ({} groups)", pair, points[0].points.size(),
@@ -75,18 +75,17 @@ TableRun run_table6(const TablesOptions& options) {
   run.notes.push_back(
       "Paper (6-core CPU, 640x480, n = 16, PCL's single-thread GICP): landmarks 4.3 ms, rendering 57.3 ms per frame; "
       "tracking 3.02 s, optimize 13.94 s per panorama; align 35.92 s, integrate 2.63 s per pair.");
-  run.settings_json = fmt::format(R"({{"panorama_method": "{}", "registration_method": "{}", "integration": "{}"}})",
-                                  to_string(scene_options.panorama.fusion.method),
-                                  to_string(scene_options.registration.icp.method),
-                                  to_string(scene_options.integration.method));
+  run.settings_json =
+      fmt::format(R"({{"panorama_method": "{}", "registration_method": "{}", "integration": "{}"}})",
+                  to_string(scene_options.panorama.fusion.method), to_string(scene_options.registration.icp.method),
+                  to_string(scene_options.integration.method));
   return run;
 }
 
 }  // namespace
 
 TableDriver table6_driver() {
-  return {"table6", "time per module (front end, warping, tracking, optimisation, alignment, integration)",
-          run_table6};
+  return {"table6", "time per module (front end, warping, tracking, optimisation, alignment, integration)", run_table6};
 }
 
 }  // namespace panoscan::tables

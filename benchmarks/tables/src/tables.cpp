@@ -2,7 +2,6 @@
 #include "panoscan/core/timer.h"
 #include "panoscan/tables/tables.h"
 
-
 #include <chrono>
 #include <ctime>
 #include <fstream>
@@ -213,10 +212,16 @@ TableRun run_and_write(const std::string& name, const TablesOptions& options) {
   j["date_utc"] = utc_now();
   j["seconds"] = seconds;
   j["machine"] = {{"cpu", cpu_model()}, {"hardware_threads", std::thread::hardware_concurrency()}};
-  j["settings"] = {{"size", preset.name}, {"width", preset.width}, {"height", preset.height},
-                   {"every", preset.every}, {"panorama_height", preset.panorama_height},
-                   {"tsdf_voxel_m", preset.tsdf_voxel_m}, {"noise", options.noise},
-                   {"seed", options.seed}, {"threads", options.threads}, {"scene_texture", options.texture}};
+  j["settings"] = {{"size", preset.name},
+                   {"width", preset.width},
+                   {"height", preset.height},
+                   {"every", preset.every},
+                   {"panorama_height", preset.panorama_height},
+                   {"tsdf_voxel_m", preset.tsdf_voxel_m},
+                   {"noise", options.noise},
+                   {"seed", options.seed},
+                   {"threads", options.threads},
+                   {"scene_texture", options.texture}};
   j["driver_settings"] = nlohmann::json::parse(run.settings_json);
   for (const auto& t : run.tables) {
     nlohmann::json table;

@@ -38,7 +38,8 @@ void StitchOptions::check(const std::string& origin) const {
 }
 
 void StitchedOdometryOptions::check(const std::string& origin) const {
-  if (iterations_per_level.empty()) throw make_error(origin, "odometry.iterations_per_level", "needs at least one level");
+  if (iterations_per_level.empty())
+    throw make_error(origin, "odometry.iterations_per_level", "needs at least one level");
   for (int n : iterations_per_level)
     if (n < 1) throw make_error(origin, "odometry.iterations_per_level", "every level needs >= 1 iteration");
   if (!(max_depth_difference_m > 0)) throw make_error(origin, "odometry.max_depth_difference_m", "must be > 0");
@@ -102,7 +103,8 @@ std::vector<FrameGroup> group_frames_by_time(const ScanIndex& scan, const Stitch
   if (scan.frames.size() != scan.rig.sensors.size())
     throw make_error(origin, "frames", "the frame listings do not match the rig's sensors");
   for (std::size_t c = 0; c < scan.frames.size(); ++c)
-    if (scan.frames[c].empty()) throw make_error(origin, scan.rig.sensors[c].name, "the camera has no frames to stitch");
+    if (scan.frames[c].empty())
+      throw make_error(origin, scan.rig.sensors[c].name, "the camera has no frames to stitch");
   const std::size_t r = std::size_t(scan.rig.reference_sensor);
   const auto& reference = scan.frames[r];
   if (reference.size() < 2)
@@ -110,7 +112,8 @@ std::vector<FrameGroup> group_frames_by_time(const ScanIndex& scan, const Stitch
   double gap = options.max_time_gap_s;
   if (gap == 0.0) {
     std::vector<double> intervals;
-    for (std::size_t i = 1; i < reference.size(); ++i) intervals.push_back(reference[i].timestamp - reference[i - 1].timestamp);
+    for (std::size_t i = 1; i < reference.size(); ++i)
+      intervals.push_back(reference[i].timestamp - reference[i - 1].timestamp);
     std::nth_element(intervals.begin(), intervals.begin() + std::ptrdiff_t(intervals.size() / 2), intervals.end());
     gap = 0.5 * intervals[intervals.size() / 2];
   }
@@ -166,9 +169,9 @@ std::vector<Rigid3d> virtual_from_cameras(const ScanIndex& scan, const FrameGrou
 namespace {
 
 struct ProjectedVertex {
-  double u = 0, v = 0;   // virtual pixel
-  double inv_z = 0;      // 1 / depth in the virtual camera
-  double source_z = 0;   // depth in the source camera
+  double u = 0, v = 0;  // virtual pixel
+  double inv_z = 0;     // 1 / depth in the virtual camera
+  double source_z = 0;  // depth in the source camera
   float rgb[3] = {0, 0, 0};
   bool valid = false;
 };
@@ -292,8 +295,9 @@ StitchedScanInfo write_stitched_scan(const ScanIndex& scan, const fs::path& out_
   sensor.nominal_fps = reference.nominal_fps;
   rig.sensors.push_back(sensor);
   rig.reference_sensor = 0;
-  rig.description = std::string("pre-stitched (") + (poses ? "relative poses: " + poses->source : "calibrated extrinsics") +
-                    ") from " + scan.root.string();
+  rig.description = std::string("pre-stitched (") +
+                    (poses ? "relative poses: " + poses->source : "calibrated extrinsics") + ") from " +
+                    scan.root.string();
   ScanWriter writer(out_dir, rig, overwrite);
   // Frames are rendered in parallel in batches and written in timestamp order (the writer's rule).
   tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
@@ -303,7 +307,8 @@ StitchedScanInfo write_stitched_scan(const ScanIndex& scan, const fs::path& out_
     std::vector<StitchedFrame> frames(end - start);
     arena.execute([&] {
       tbb::parallel_for(start, end, [&](std::size_t i) {
-        frames[i - start] = stitch_group(scan, groups[i], virtual_from_cameras(scan, groups[i], poses), info.intrinsics, options);
+        frames[i - start] =
+            stitch_group(scan, groups[i], virtual_from_cameras(scan, groups[i], poses), info.intrinsics, options);
       });
     });
     for (const StitchedFrame& f : frames)

@@ -15,15 +15,14 @@ namespace fs = std::filesystem;
 
 namespace panoscan {
 
-namespace {
-
-}  // namespace
+namespace {}  // namespace
 
 void check_rig_trajectory(const RigTrajectory& trajectory, const ScanIndex& scan, const std::string& origin) {
   const std::size_t sensors = scan.rig.sensors.size();
   if (trajectory.world_from_cam.size() != sensors)
-    throw make_error(origin, "sensors", "expected " + std::to_string(sensors) + " trajectories, found " +
-                                            std::to_string(trajectory.world_from_cam.size()));
+    throw make_error(origin, "sensors",
+                     "expected " + std::to_string(sensors) + " trajectories, found " +
+                         std::to_string(trajectory.world_from_cam.size()));
   if (trajectory.ref_from_cam.size() != sensors)
     throw make_error(origin, "ref_from_cam", "expected " + std::to_string(sensors) + " extrinsics");
   for (std::size_t c = 0; c < sensors; ++c) {
@@ -31,8 +30,9 @@ void check_rig_trajectory(const RigTrajectory& trajectory, const ScanIndex& scan
     const auto& frames = scan.frames[c];
     const std::string name = scan.rig.sensors[c].name;
     if (poses.size() != frames.size())
-      throw make_error(origin, name, "expected one pose per frame (" + std::to_string(frames.size()) + "), found " +
-                                         std::to_string(poses.size()));
+      throw make_error(
+          origin, name,
+          "expected one pose per frame (" + std::to_string(frames.size()) + "), found " + std::to_string(poses.size()));
     for (std::size_t i = 0; i < poses.size(); ++i) {
       if (std::abs(poses[i].timestamp - frames[i].timestamp) > 5e-7)
         throw make_error(origin, name + " pose " + std::to_string(i),

@@ -65,8 +65,8 @@ FrameFeatures extract_features(const RgbdFrame& frame, const PinholeIntrinsics& 
   const double area_scale = double(intrinsics.width) * intrinsics.height / (640.0 * 480.0);
   const int wanted = std::max(50, int(std::lround(o.orb_features * area_scale)));
   const int edge = std::max(5, std::min(31, intrinsics.width / 20));
-  auto orb = cv::ORB::create(wanted, float(o.orb_scale_factor), o.orb_levels, edge, 0, 2, cv::ORB::HARRIS_SCORE,
-                             edge, o.orb_fast_threshold);
+  auto orb = cv::ORB::create(wanted, float(o.orb_scale_factor), o.orb_levels, edge, 0, 2, cv::ORB::HARRIS_SCORE, edge,
+                             o.orb_fast_threshold);
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat descriptors;
   orb->detectAndCompute(gray, cv::noArray(), keypoints, descriptors);
@@ -90,9 +90,9 @@ FrameFeatures extract_features(const RgbdFrame& frame, const PinholeIntrinsics& 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("popcnt", "default")))
 #endif
-std::vector<std::pair<int, int>> match_descriptors(const FrameFeatures& a, const std::vector<int>& subset_a,
-                                                   const FrameFeatures& b, const std::vector<int>& subset_b,
-                                                   const FrontendOptions& o) {
+std::vector<std::pair<int, int>>
+match_descriptors(const FrameFeatures& a, const std::vector<int>& subset_a, const FrameFeatures& b,
+                  const std::vector<int>& subset_b, const FrontendOptions& o) {
   std::vector<std::pair<int, int>> matches;
   std::vector<int> best_for_b(b.keypoints.size(), -1), best_distance_b(b.keypoints.size(), 1 << 20);
   std::vector<std::pair<int, int>> candidates;
@@ -142,7 +142,8 @@ double point_sigma(const Keypoint& k, const PinholeIntrinsics& intrinsics, const
 // Step 2: the candidate frame pairs in a fixed order: each frame with the previous
 // same_camera_window frames of its camera, the last loop_frames of each camera with its first
 // ones, and each frame with the temporally closest frame of every other camera.
-std::vector<PairTask> candidate_pairs(const ScanIndex& scan, const std::vector<char>& used, const FrontendOptions& options) {
+std::vector<PairTask> candidate_pairs(const ScanIndex& scan, const std::vector<char>& used,
+                                      const FrontendOptions& options) {
   const int sensor_count = int(scan.rig.sensors.size());
   std::vector<PairTask> tasks;
   for (int s = 0; s < sensor_count; ++s) {
@@ -191,7 +192,8 @@ PairOutcome match_pair(const PairTask& task, const std::vector<std::vector<Frame
   Rigid3d predicted_a_from_b = Rigid3d::Identity();
   if (cross) {
     // The narrow overlap band: keypoints that project into the other camera (calibrated extrinsics).
-    predicted_a_from_b = scan.rig.sensors[task.sensor_a].ref_from_cam.inverse() * scan.rig.sensors[task.sensor_b].ref_from_cam;
+    predicted_a_from_b =
+        scan.rig.sensors[task.sensor_a].ref_from_cam.inverse() * scan.rig.sensors[task.sensor_b].ref_from_cam;
     const double m = options.cross_overlap_margin_px;
     auto inside = [m](const PinholeIntrinsics& in, const Eigen::Vector3d& p) {
       if (p.z() <= 0.05) return false;

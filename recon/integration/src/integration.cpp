@@ -98,7 +98,8 @@ IntegrationResult integrate_panoramas(const std::vector<PanoramaPoints>& panoram
     const Eigen::Matrix3d rotation = p.world_from_panorama.linear();
     for (std::size_t i = 0; i < p.points.size(); ++i) {
       const Eigen::Vector3d w = p.world_from_panorama * p.points[i];
-      if (!w.allFinite()) throw make_error("", "panorama " + std::to_string(k), "non-finite point " + std::to_string(i));
+      if (!w.allFinite())
+        throw make_error("", "panorama " + std::to_string(k), "non-finite point " + std::to_string(i));
       world[offsets[k] + i] = w;
       if (!world_covariance.empty() && !p.covariances.empty())
         world_covariance[offsets[k] + i] = rotation * p.covariances[i] * rotation.transpose();

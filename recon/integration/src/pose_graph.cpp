@@ -99,7 +99,8 @@ PoseGraphResult optimize_pose_graph(const std::vector<Rigid3d>& initial, const s
     component[root(e.from)] = root(e.to);
   }
   for (int i = 0; i < n; ++i) {
-    if (!initial[i].matrix().allFinite()) throw make_error("", "pose graph", "non-finite initial pose " + std::to_string(i));
+    if (!initial[i].matrix().allFinite())
+      throw make_error("", "pose graph", "non-finite initial pose " + std::to_string(i));
     if (root(i) != root(options.fixed_node))
       throw make_error("", "pose graph", "node " + std::to_string(i) + " is not connected to the fixed node");
   }

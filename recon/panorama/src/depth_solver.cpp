@@ -50,8 +50,8 @@ struct DepthProblem {
   DepthFusionMethod method = DepthFusionMethod::kTsa;
   double lambda = 0.0;
   double data_eps = 0.002, tv_eps = 1e-4, tsa_eps = 1e-7;
-  std::vector<std::size_t> pixel;      // pixel index of each unknown
-  std::vector<Eigen::Vector3d> ray;    // unit direction of each unknown's pixel
+  std::vector<std::size_t> pixel;    // pixel index of each unknown
+  std::vector<Eigen::Vector3d> ray;  // unit direction of each unknown's pixel
   std::vector<double> sin_theta;
   std::vector<int> left, right, up, down;  // neighbouring unknowns (azimuth periodic), -1 = none
 
@@ -102,8 +102,8 @@ struct DepthProblem {
       for (std::size_t i = c * kChunk; i < end; ++i) {
         // Data term of Eq. 5 over all measurements of the pixel.
         const std::size_t p = pixel[i];
-        const depth_terms::DataTerm data = depth_terms::data_term(
-            x[i], m->samples.data() + m->offsets[p], m->samples.data() + m->offsets[p + 1], data_eps);
+        const depth_terms::DataTerm data = depth_terms::data_term(x[i], m->samples.data() + m->offsets[p],
+                                                                  m->samples.data() + m->offsets[p + 1], data_eps);
         sum.smoothed += data.smoothed;
         sum.data += data.exact;
         g_data[i] = data.gradient;
@@ -216,7 +216,8 @@ void minimise_lbfgs(const DepthProblem& problem, std::vector<double>& x, const F
     DepthProblem::Parts new_parts;
     x_new.resize(n);
     for (int trial = 0; trial < 40; ++trial) {
-      tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) { x_new[i] = std::max(1e-3, x[i] + step * direction[i]); });
+      tbb::parallel_for(std::size_t(0), n,
+                        [&](std::size_t i) { x_new[i] = std::max(1e-3, x[i] + step * direction[i]); });
       // The gradient comes with the energy: most iterations accept the first trial step.
       new_parts = problem.evaluate(x_new, &g_new);
       if (new_parts.smoothed <= parts.smoothed + 1e-4 * step * slope) {
@@ -324,7 +325,8 @@ void FusionOptions::check(const std::string& origin) const {
   if (!(max_sigma_m > 0)) throw make_error(origin, "panorama.max_sigma_m", "must be > 0");
   if (!(lambda_reference_count > 0) || !std::isfinite(lambda_reference_count))
     throw make_error(origin, "panorama.lambda_reference_count", "must be > 0");
-  if (!(lambda_scale >= 0) || !std::isfinite(lambda_scale)) throw make_error(origin, "panorama.lambda_scale", "must be >= 0");
+  if (!(lambda_scale >= 0) || !std::isfinite(lambda_scale))
+    throw make_error(origin, "panorama.lambda_scale", "must be >= 0");
   if (lambda_reference_height < 1) throw make_error(origin, "panorama.lambda_reference_height", "must be >= 1");
 }
 
@@ -369,8 +371,9 @@ Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
   problem.right.resize(n);
   problem.up.resize(n);
   problem.down.resize(n);
-  for (auto* g : {&problem.data_curvature, &problem.g_anchor, &problem.g_left, &problem.g_right, &problem.g_up, &problem.g_down, &problem.g_data,
-                 &problem.h_anchor, &problem.h_left, &problem.h_right, &problem.h_up, &problem.h_down})
+  for (auto* g :
+       {&problem.data_curvature, &problem.g_anchor, &problem.g_left, &problem.g_right, &problem.g_up, &problem.g_down,
+        &problem.g_data, &problem.h_anchor, &problem.h_left, &problem.h_right, &problem.h_up, &problem.h_down})
     g->assign(n, 0.0);
   std::vector<double> x(n, 0.0);
   tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
@@ -414,7 +417,7 @@ Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
     // final solve is close to the exact L1 of Eq. 5 (whose energy is the one reported). Each
     // stage gets an equal share of the iteration budget and stops early when converged.
     std::vector<double> stages;
-    for (double eps = options.data_epsilon_m; ; eps /= 5) {
+    for (double eps = options.data_epsilon_m;; eps /= 5) {
       stages.push_back(std::max(eps, options.data_epsilon_final_m));
       if (eps <= options.data_epsilon_final_m) break;
     }

@@ -25,8 +25,8 @@ constexpr int kPanoramaVersion = 1;
 // A small perceptual-ish colour map (dark blue -> cyan -> yellow -> red), t in [0, 1].
 void colour_map(double t, std::uint8_t* rgb) {
   t = std::clamp(t, 0.0, 1.0);
-  static const double stops[5][3] = {{0.05, 0.05, 0.35}, {0.0, 0.55, 0.85}, {0.3, 0.85, 0.4}, {0.98, 0.85, 0.1},
-                                     {0.8, 0.05, 0.05}};
+  static const double stops[5][3] = {
+      {0.05, 0.05, 0.35}, {0.0, 0.55, 0.85}, {0.3, 0.85, 0.4}, {0.98, 0.85, 0.1}, {0.8, 0.05, 0.05}};
   const double s = t * 4.0;
   const int i = std::min(3, int(s));
   const double f = s - i;
@@ -132,21 +132,32 @@ void write_panorama(const fs::path& dir, const Panorama& panorama, bool overwrit
   j["height"] = panorama.pano.height;
   j["width"] = panorama.pano.width();
   j["world_from_pano"] = pose_to_json(panorama.world_from_pano);
-  j["axis"] = {{"point", {panorama.world_from_pano.translation().x(), panorama.world_from_pano.translation().y(),
-                          panorama.world_from_pano.translation().z()}},
-               {"direction", {panorama.world_from_pano.linear()(0, 2), panorama.world_from_pano.linear()(1, 2),
-                              panorama.world_from_pano.linear()(2, 2)}}};
+  j["axis"] = {{"point",
+                {panorama.world_from_pano.translation().x(), panorama.world_from_pano.translation().y(),
+                 panorama.world_from_pano.translation().z()}},
+               {"direction",
+                {panorama.world_from_pano.linear()(0, 2), panorama.world_from_pano.linear()(1, 2),
+                 panorama.world_from_pano.linear()(2, 2)}}};
   j["method"] = panorama.method;
   j["lambda"] = panorama.lambda;
-  j["files"] = {{"colour", "colour.exr (R,G,B linear 0..1)"}, {"depth", "depth.exr (Z, radial metres, 0 = none)"},
-                {"variance", "variance.exr (V, m^2)"}, {"count", "count.exr (N)"}, {"flags", "flags.png (255 = sigma_z above limit)"},
+  j["files"] = {{"colour", "colour.exr (R,G,B linear 0..1)"},
+                {"depth", "depth.exr (Z, radial metres, 0 = none)"},
+                {"variance", "variance.exr (V, m^2)"},
+                {"count", "count.exr (N)"},
+                {"flags", "flags.png (255 = sigma_z above limit)"},
                 {"cloud", "cloud.ply (world frame)"}};
-  j["legend"] = {{"depth_png_m", {0.0, depth_high}}, {"variance_png_sigma_m", {0.0, sigma_high}},
-                 {"colours", "dark blue (low) -> cyan -> green -> yellow -> red (high); bar with labelled ticks under the image"}};
+  j["legend"] = {
+      {"depth_png_m", {0.0, depth_high}},
+      {"variance_png_sigma_m", {0.0, sigma_high}},
+      {"colours", "dark blue (low) -> cyan -> green -> yellow -> red (high); bar with labelled ticks under the image"}};
   nlohmann::json energy = nlohmann::json::array();
   for (const EnergyRecord& e : panorama.energy)
-    energy.push_back({{"iteration", e.iteration}, {"smoothed", e.smoothed}, {"data", e.data},
-                      {"smoothness", e.smoothness}, {"lambda_smoothness", e.smoothness_weighted}, {"data_epsilon_m", e.data_epsilon_m}});
+    energy.push_back({{"iteration", e.iteration},
+                      {"smoothed", e.smoothed},
+                      {"data", e.data},
+                      {"smoothness", e.smoothness},
+                      {"lambda_smoothness", e.smoothness_weighted},
+                      {"data_epsilon_m", e.data_epsilon_m}});
   j["energy"] = energy;
   write_file_atomic(tmp / "panorama.json", j.dump(1) + "\n");
   out.commit();

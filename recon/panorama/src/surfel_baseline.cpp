@@ -26,13 +26,15 @@ struct Surfel {
 void SurfelOptions::check(const std::string& origin) const {
   if (!(max_depth_m > 0)) throw make_error(origin, "surfels.max_depth_m", "must be > 0");
   if (!(merge_distance_m > 0)) throw make_error(origin, "surfels.merge_distance_m", "must be > 0");
-  if (!(merge_angle_deg > 0 && merge_angle_deg <= 180)) throw make_error(origin, "surfels.merge_angle_deg", "must be in (0, 180]");
+  if (!(merge_angle_deg > 0 && merge_angle_deg <= 180))
+    throw make_error(origin, "surfels.merge_angle_deg", "must be in (0, 180]");
   if (!(min_confidence >= 0)) throw make_error(origin, "surfels.min_confidence", "must be >= 0");
   if (direction_bins_height < 4) throw make_error(origin, "surfels.direction_bins_height", "must be >= 4");
   if (frame_stride < 1) throw make_error(origin, "surfels.frame_stride", "must be >= 1");
 }
 
-SurfelResult build_surfel_baseline(const ScanIndex& scan, const RigTrajectory& trajectory, const SurfelOptions& options) {
+SurfelResult build_surfel_baseline(const ScanIndex& scan, const RigTrajectory& trajectory,
+                                   const SurfelOptions& options) {
   options.check();
   check_rig_trajectory(trajectory, scan, "poses");
   const auto t0 = std::chrono::steady_clock::now();
@@ -131,7 +133,8 @@ SurfelResult build_surfel_baseline(const ScanIndex& scan, const RigTrajectory& t
     if (sf.confidence < options.min_confidence) continue;
     result.surfels.positions.push_back(sf.position.cast<double>());
     result.surfels.normals.push_back(sf.normal);
-    result.surfels.colours.push_back({std::uint8_t(std::lround(sf.colour.x())), std::uint8_t(std::lround(sf.colour.y())),
+    result.surfels.colours.push_back({std::uint8_t(std::lround(sf.colour.x())),
+                                      std::uint8_t(std::lround(sf.colour.y())),
                                       std::uint8_t(std::lround(sf.colour.z()))});
     result.radii.push_back(sf.radius);
     result.confidences.push_back(sf.confidence);

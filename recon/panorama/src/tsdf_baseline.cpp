@@ -28,7 +28,7 @@ TsdfResult build_tsdf_baseline(const ScanIndex& scan, const RigTrajectory& traje
   using Clock = std::chrono::steady_clock;
   namespace o3d = open3d;
   o3d::pipelines::integration::ScalableTSDFVolume volume(options.voxel_m, options.truncation_m,
-                                                          o3d::pipelines::integration::TSDFVolumeColorType::RGB8);
+                                                         o3d::pipelines::integration::TSDFVolumeColorType::RGB8);
   TsdfResult result;
   const auto t0 = Clock::now();
   for (std::size_t s = 0; s < scan.frames.size(); ++s) {
@@ -44,8 +44,8 @@ TsdfResult build_tsdf_baseline(const ScanIndex& scan, const RigTrajectory& traje
   const auto mesh = volume.ExtractTriangleMesh();
   const auto t2 = Clock::now();
   result.volume_units = volume.volume_units_.size();
-  const std::size_t unit_voxels = std::size_t(volume.volume_unit_resolution_) * volume.volume_unit_resolution_ *
-                                  volume.volume_unit_resolution_;
+  const std::size_t unit_voxels =
+      std::size_t(volume.volume_unit_resolution_) * volume.volume_unit_resolution_ * volume.volume_unit_resolution_;
   // Open3D's coloured voxel: tsdf + weight (float each) + colour (3 doubles) + grid index (3 ints).
   result.memory_bytes = result.volume_units * unit_voxels * (2 * sizeof(float) + 3 * sizeof(double) + 3 * sizeof(int));
   for (std::size_t i = 0; i < mesh->vertices_.size(); ++i) {

@@ -14,7 +14,7 @@ namespace panoscan {
 namespace {
 
 struct WarpVertex {
-  Eigen::Vector3d point;  // in the panorama frame
+  Eigen::Vector3d point;    // in the panorama frame
   double u = 0.0, v = 0.0;  // continuous panorama pixel coordinates
   double radial = 0.0;
   const std::uint8_t* rgb = nullptr;
@@ -179,10 +179,9 @@ PanoramaMeasurements warp_frames(const ScanIndex& scan, const RigTrajectory& tra
   tbb::parallel_for(std::size_t(0), jobs.size(), [&](std::size_t j) {
     const FrameJob& job = jobs[j];
     const RgbdFrame frame = load_frame(scan, job.sensor, job.frame);
-    pole_skips += warp_frame(frame, scan.rig.sensors[job.sensor].intrinsics, pano_from_cam(job), out.pano, options,
-                             [&](std::size_t pixel, float, const std::uint8_t*) {
-                               counts[pixel].fetch_add(1, std::memory_order_relaxed);
-                             });
+    pole_skips += warp_frame(
+        frame, scan.rig.sensors[job.sensor].intrinsics, pano_from_cam(job), out.pano, options,
+        [&](std::size_t pixel, float, const std::uint8_t*) { counts[pixel].fetch_add(1, std::memory_order_relaxed); });
   });
   out.offsets.assign(pixels + 1, 0);
   for (std::size_t p = 0; p < pixels; ++p) out.offsets[p + 1] = out.offsets[p] + counts[p].load();

@@ -19,8 +19,8 @@ Placement place_panoramas(const std::vector<std::string>& names, const Rigid3d& 
   if (n == 0) throw make_error("", "placement", "no panoramas");
   for (const PoseGraphEdge& e : edges)
     if (e.from < 0 || e.from >= n || e.to < 0 || e.to >= n || e.from == e.to)
-      throw make_error("", "placement", fmt::format("registration {} -> {} does not link two of the {} panoramas", e.from,
-                                                    e.to, n));
+      throw make_error("", "placement",
+                       fmt::format("registration {} -> {} does not link two of the {} panoramas", e.from, e.to, n));
   Placement result;
   result.edge_kept.assign(edges.size(), 1);
   result.edge_in_chain.assign(edges.size(), 0);
@@ -93,7 +93,8 @@ nlohmann::json placement_to_json(const std::vector<std::string>& names, const st
   j["version"] = 1;
   j["panoramas"] = nlohmann::json::array();
   for (std::size_t k = 0; k < names.size(); ++k)
-    j["panoramas"].push_back({{"name", names[k]}, {"world_from_panorama", pose_to_json(placement.world_from_panorama[k])}});
+    j["panoramas"].push_back(
+        {{"name", names[k]}, {"world_from_panorama", pose_to_json(placement.world_from_panorama[k])}});
   j["registrations"] = nlohmann::json::array();
   for (std::size_t k = 0; k < edges.size(); ++k)
     j["registrations"].push_back({{"source", names[edges[k].from]},

@@ -24,8 +24,8 @@ void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std:
       try {
         log_info(fmt::format("registering {}", pair));
         PairEdge edge{source, target,
-                      register_panorama_pair(panoramas[source], panoramas[target], options.registration,
-                                             nullptr, names[source], names[target])};
+                      register_panorama_pair(panoramas[source], panoramas[target], options.registration, nullptr,
+                                             names[source], names[target])};
         result.edges.push_back(std::move(edge));
       } catch (const Error& e) {
         if (consecutive) throw;
@@ -86,7 +86,8 @@ SceneResult reconstruct_scene(const std::vector<SceneScan>& scans, const SceneOp
   const auto start = steady_now();
   std::vector<PanoramaPoints> points;
   for (int k = 0; k < n; ++k)
-    points.push_back(panorama_integration_points(result.panoramas[k], result.world_from_panorama[k], options.registration.cloud));
+    points.push_back(
+        panorama_integration_points(result.panoramas[k], result.world_from_panorama[k], options.registration.cloud));
   result.integration = integrate_panoramas(points, options.integration);
   result.seconds_integration = seconds_since(start);
   return result;

@@ -60,8 +60,8 @@ RegistrationCloud panorama_registration_cloud(const Panorama& panorama, const Pa
   const int stride = std::max(1, options.pixel_stride);
   const double sigma_angle = 0.5 * M_PI / height;
   const double constant_sigma = options.covariance != DepthCovarianceModel::kConstant ? 0.0
-                                : options.constant_sigma_m > 0                       ? options.constant_sigma_m
-                                                                                     : median_usable_sigma(panorama, options);
+                                : options.constant_sigma_m > 0                        ? options.constant_sigma_m
+                                                               : median_usable_sigma(panorama, options);
   RegistrationCloud cloud;
   if (pixels) pixels->clear();
   for (int v = 0; v < height; v += stride)
@@ -74,7 +74,7 @@ RegistrationCloud panorama_registration_cloud(const Panorama& panorama, const Pa
       const double sigma = options.covariance == DepthCovarianceModel::kMeasured
                                ? std::max(sigma_measured, 1e-4)  // a pixel is never exact
                            : options.covariance == DepthCovarianceModel::kHandaModel ? handa_model_sigma(depth)
-                                                                                    : std::max(constant_sigma, 1e-4);
+                                                                                     : std::max(constant_sigma, 1e-4);
       cloud.points.push_back(pano.direction(u, v) * depth);
       cloud.measurement_covariances.push_back(equirectangular_point_covariance(
           2 * M_PI * (u + 0.5) / width, M_PI * (v + 0.5) / height, depth, sigma_angle, sigma));
@@ -82,9 +82,9 @@ RegistrationCloud panorama_registration_cloud(const Panorama& panorama, const Pa
       if (pixels) pixels->push_back(std::size_t(v) * width + u);
     }
   if (cloud.points.size() < 10)
-    throw make_error("", "panorama", "has fewer than 10 usable pixels (depth, >= " +
-                                         std::to_string(options.min_observations) + " observations, sigma_z <= " +
-                                         std::to_string(options.max_sigma_m) + " m)");
+    throw make_error("", "panorama",
+                     "has fewer than 10 usable pixels (depth, >= " + std::to_string(options.min_observations) +
+                         " observations, sigma_z <= " + std::to_string(options.max_sigma_m) + " m)");
   prepare_surface(cloud, Eigen::Vector3d::Zero(), options.surface);
   return cloud;
 }
@@ -128,8 +128,8 @@ PairRegistration register_panorama_pair(const Panorama& source, const Panorama& 
   } else if (result.guess.success) {
     initial = result.guess.target_from_source;
   } else {
-    throw make_error(pair, "initial guess", "ORB feature alignment failed (" + result.guess.failure +
-                                                "); give an initial pose");
+    throw make_error(pair, "initial guess",
+                     "ORB feature alignment failed (" + result.guess.failure + "); give an initial pose");
   }
   try {
     result.icp = register_icp(source_cloud, target_cloud, initial, options.icp);
@@ -173,7 +173,8 @@ PanoramaPoints panorama_integration_points(const Panorama& panorama, const Rigid
     points.covariances[i] = cloud.surface_covariances[i] + cloud.measurement_covariances[i];  // Eq. 9's Omega^A
     const int u = int(pixels[i] % width), v = int(pixels[i] / width);
     for (int c = 0; c < 3; ++c)
-      points.colours[i][c] = static_cast<std::uint8_t>(std::clamp(panorama.colour.at(u, v, c) * 255.f + 0.5f, 0.f, 255.f));
+      points.colours[i][c] =
+          static_cast<std::uint8_t>(std::clamp(panorama.colour.at(u, v, c) * 255.f + 0.5f, 0.f, 255.f));
   }
   return points;
 }
@@ -181,10 +182,11 @@ PanoramaPoints panorama_integration_points(const Panorama& panorama, const Rigid
 PairRegistrationOptions pair_registration_options_from_config(Config& config) {
   PairRegistrationOptions options;
   IcpOptions& icp = options.icp;
-  icp.method = icp_method_from_string(config.get_string(
-      "registration.method", to_string(icp.method),
-      {"p2point", "p2plane", "p2plane-curv", "gicp", "anisotropic", "gicp-def", "gicp-ours"}));
-  icp.max_correspondence_m = config.get_double("registration.max_correspondence_m", icp.max_correspondence_m, 1e-3, 10.0);
+  icp.method = icp_method_from_string(
+      config.get_string("registration.method", to_string(icp.method),
+                        {"p2point", "p2plane", "p2plane-curv", "gicp", "anisotropic", "gicp-def", "gicp-ours"}));
+  icp.max_correspondence_m =
+      config.get_double("registration.max_correspondence_m", icp.max_correspondence_m, 1e-3, 10.0);
   icp.max_iterations = config.get_int("registration.max_iterations", icp.max_iterations, 1, 1000);
   options.min_fitness = config.get_double("registration.min_fitness", options.min_fitness, 0.0, 1.0);
   icp.threads = config.get_int("threads", 0, 0, 1024);

@@ -31,7 +31,8 @@ Features detect(const PanoramaImages& images, const FeatureAlignmentOptions& opt
   const ImageU8& rgb = *images.rgb;
   const ImageF32& depth = *images.radial_depth;
   if (rgb.channels != 3 || rgb.width != 2 * rgb.height || depth.width != rgb.width || depth.height != rgb.height)
-    throw make_error("", std::string(role) + " panorama", "needs H x 2H colour (3 channels) and depth of the same size");
+    throw make_error("", std::string(role) + " panorama",
+                     "needs H x 2H colour (3 channels) and depth of the same size");
   cv::Mat grey(rgb.height, rgb.width, CV_8UC1);
   for (int y = 0; y < rgb.height; ++y)
     for (int x = 0; x < rgb.width; ++x) {
@@ -101,8 +102,8 @@ FeatureAlignment align_panorama_features(const PanoramaImages& source, const Pan
   const bool found = rigid_ransac(matched_to, matched_from, thresholds, options.ransac_iterations, options.min_inliers,
                                   options.seed, 0, &ransac);
   if (!found) {
-    result.failure = "RANSAC found only " + std::to_string(ransac.inliers.size()) + " consistent matches of " +
-                     std::to_string(n);
+    result.failure =
+        "RANSAC found only " + std::to_string(ransac.inliers.size()) + " consistent matches of " + std::to_string(n);
     result.inliers = int(ransac.inliers.size());
     return result;
   }

@@ -47,9 +47,7 @@ namespace {
 
 constexpr std::size_t kBlock = 1024;  // fixed reduction blocks: results independent of threads
 
-bool uses_normals(IcpMethod m) {
-  return m == IcpMethod::kPointToPlane || m == IcpMethod::kPointToPlaneCurvature;
-}
+bool uses_normals(IcpMethod m) { return m == IcpMethod::kPointToPlane || m == IcpMethod::kPointToPlaneCurvature; }
 bool uses_surface_covariance(IcpMethod m) {
   return m == IcpMethod::kGicp || m == IcpMethod::kAnisotropic || m == IcpMethod::kGicpNoiseModel ||
          m == IcpMethod::kGicpMeasured;
@@ -222,8 +220,10 @@ IcpResult register_icp(const RegistrationCloud& source, const RegistrationCloud&
       const Partial system = problem.linearise(result.target_from_source);
       result.iterations = iteration + 1;
       result.cost_history.push_back(system.cost);
-      if (system.count < 6) throw make_error("", "registration", "fewer than 6 correspondences: no overlap within " +
-                                                                  std::to_string(options.max_correspondence_m) + " m");
+      if (system.count < 6)
+        throw make_error(
+            "", "registration",
+            "fewer than 6 correspondences: no overlap within " + std::to_string(options.max_correspondence_m) + " m");
       const Eigen::Matrix<double, 6, 1> step = -system.hessian.ldlt().solve(system.gradient);
       if (!step.allFinite()) throw make_error("", "registration", "degenerate system (the overlap constrains no pose)");
       const Rigid3d increment = make_rigid(so3_exp(step.head<3>()), step.tail<3>());

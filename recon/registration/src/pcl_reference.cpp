@@ -30,7 +30,8 @@ IcpResult register_pcl_gicp(const RegistrationCloud& source, const RegistrationC
   IcpResult result;
   result.target_from_source.matrix() = gicp.getFinalTransformation().cast<double>();
   // Re-orthonormalise: the float matrix drifts from a rotation by ~1e-7.
-  result.target_from_source.linear() = Eigen::Quaterniond(result.target_from_source.linear()).normalized().toRotationMatrix();
+  result.target_from_source.linear() =
+      Eigen::Quaterniond(result.target_from_source.linear()).normalized().toRotationMatrix();
   result.converged = gicp.hasConverged();
   result.iterations = options.max_iterations;  // PCL does not report the count
   result.rmse_m = std::sqrt(gicp.getFitnessScore(options.max_correspondence_m));

@@ -74,8 +74,8 @@ const char* to_string(TrackingMode mode) {
 }
 
 TrackingMode tracking_mode_from_string(const std::string& text, const std::string& origin) {
-  for (TrackingMode mode : {TrackingMode::kFull, TrackingMode::kBaOnly, TrackingMode::kSingleCamera,
-                            TrackingMode::kFixedExtrinsics})
+  for (TrackingMode mode :
+       {TrackingMode::kFull, TrackingMode::kBaOnly, TrackingMode::kSingleCamera, TrackingMode::kFixedExtrinsics})
     if (text == to_string(mode)) return mode;
   throw make_error(origin, "track.mode", "'" + text + "' is not one of full, ba-only, single-camera, fixed-extrinsics");
 }
@@ -83,12 +83,14 @@ TrackingMode tracking_mode_from_string(const std::string& text, const std::strin
 TrackingOptions tracking_options_from_config(Config& config) {
   TrackingOptions o;
   o.mode = tracking_mode_from_string(
-      config.get_string("track.mode", "full", {"full", "ba-only", "single-camera", "fixed-extrinsics"}), config.origin());
+      config.get_string("track.mode", "full", {"full", "ba-only", "single-camera", "fixed-extrinsics"}),
+      config.origin());
   o.pose_regularisation = config.get_bool("track.pose_regularisation", o.pose_regularisation);
   o.velocity_smoothness = config.get_bool("track.velocity_smoothness", o.velocity_smoothness);
   o.reg_translation_std_m = config.get_double("track.reg_translation_std_m", o.reg_translation_std_m, 1e-6, 1.0);
   o.reg_rotation_std_deg = config.get_double("track.reg_rotation_std_deg", o.reg_rotation_std_deg, 1e-4, 45.0);
-  o.angular_accel_std_deg_s2 = config.get_double("track.angular_accel_std_deg_s2", o.angular_accel_std_deg_s2, 1e-4, 1e4);
+  o.angular_accel_std_deg_s2 =
+      config.get_double("track.angular_accel_std_deg_s2", o.angular_accel_std_deg_s2, 1e-4, 1e4);
   o.velocity_std_scales_with_dt = config.get_bool("track.velocity_std_scales_with_dt", o.velocity_std_scales_with_dt);
   o.extrinsics_prior_translation_std_m =
       config.get_double("track.extrinsics_prior_translation_std_m", o.extrinsics_prior_translation_std_m, 1e-6, 10.0);
@@ -104,7 +106,8 @@ TrackingOptions tracking_options_from_config(Config& config) {
   o.max_iterations = config.get_int("track.max_iterations", o.max_iterations, 1, 10000);
   o.function_tolerance = config.get_double("track.function_tolerance", o.function_tolerance, 1e-15, 0.5);
   o.log_iterations = config.get_bool("track.log_iterations", o.log_iterations);
-  o.linear_solver = config.get_string("track.linear_solver", o.linear_solver, {"sparse_schur", "sparse_normal_cholesky"});
+  o.linear_solver =
+      config.get_string("track.linear_solver", o.linear_solver, {"sparse_schur", "sparse_normal_cholesky"});
   o.threads = config.get_int("threads", 0, 0, 1024);
   FrontendOptions& f = o.frontend;
   f.orb_features = config.get_int("frontend.orb_features", f.orb_features, 50, 20000);
@@ -126,7 +129,8 @@ TrackingOptions tracking_options_from_config(Config& config) {
       config.get_double("track.verify.max_unsupported_turn_deg", v.max_unsupported_turn_deg, 1e-3, 720.0);
   v.min_turn_deg = config.get_double("track.verify.min_turn_deg", v.min_turn_deg, 0.0, 3600.0);
   v.max_turn_deg = config.get_double("track.verify.max_turn_deg", v.max_turn_deg, 0.0, 3600.0);
-  v.max_backward_step_deg = config.get_double("track.verify.max_backward_step_deg", v.max_backward_step_deg, 0.0, 360.0);
+  v.max_backward_step_deg =
+      config.get_double("track.verify.max_backward_step_deg", v.max_backward_step_deg, 0.0, 360.0);
   v.pair_rotation_tolerance_deg =
       config.get_double("track.verify.pair_rotation_tolerance_deg", v.pair_rotation_tolerance_deg, 1e-4, 180.0);
   v.pair_translation_tolerance_m =
@@ -138,14 +142,15 @@ TrackingOptions tracking_options_from_config(Config& config) {
   v.max_outlier_share = config.get_double("track.verify.max_outlier_share", v.max_outlier_share, 0.0, 1.0);
   v.max_extrinsics_change_deg =
       config.get_double("track.verify.max_extrinsics_change_deg", v.max_extrinsics_change_deg, 1e-4, 180.0);
-  v.max_extrinsics_change_m = config.get_double("track.verify.max_extrinsics_change_m", v.max_extrinsics_change_m, 1e-6, 10.0);
+  v.max_extrinsics_change_m =
+      config.get_double("track.verify.max_extrinsics_change_m", v.max_extrinsics_change_m, 1e-6, 10.0);
   v.max_axis_tilt_deg = config.get_double("track.verify.max_axis_tilt_deg", v.max_axis_tilt_deg, 1e-3, 180.0);
   o.check(config.origin());
   return o;
 }
 
-TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& frontend, const TrackingOptions& options,
-                                   const RigTrajectory* initial_guess) {
+TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& frontend,
+                                   const TrackingOptions& options, const RigTrajectory* initial_guess) {
   namespace tg = tracking_graph;
   options.check();
   const SteadyTime start = steady_now();
@@ -196,7 +201,8 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   stats.linear_solver_seconds = summary.linear_solver_time_in_seconds;
   stats.jacobian_seconds = summary.jacobian_evaluation_time_in_seconds;
   if (!stats.converged)
-    log_warn(state.origin + ": tracking did not converge (" + summary.message + (all_finite ? "" : "; non-finite poses") + ")");
+    log_warn(state.origin + ": tracking did not converge (" + summary.message +
+             (all_finite ? "" : "; non-finite poses") + ")");
   result.stats = stats;
 
   // Does the solution hold up? (tracking_verify.cpp)
@@ -204,7 +210,8 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   for (int s = 0; s < state.sensor_count; ++s)
     if (state.active[s]) observations[s] = state.observation_count[s];
   if (options.verify.enabled) {
-    result.verdict = verify_tracking(result, scan, frontend, observations, tg::observation_residual_norms(graph), options);
+    result.verdict =
+        verify_tracking(result, scan, frontend, observations, tg::observation_residual_norms(graph), options);
     if (!result.verdict.reliable)
       log_warn(state.origin + ": tracking is not trustworthy: " + result.verdict.first_failure());
   }
@@ -225,30 +232,37 @@ TrackingResult track_scan(const ScanIndex& scan, const TrackingOptions& options)
 }
 
 std::string tracking_stats_json(const TrackingStats& s) {
-  nlohmann::json j = {{"format", "panoscan-tracking-stats"},
-                      {"version", 1},
-                      {"mode", s.mode},
-                      {"frames", s.frames},
-                      {"landmarks", s.landmarks},
-                      {"observations", s.observations},
-                      {"frames_without_observations", s.frames_without_observations},
-                      {"frames_without_features", s.frames_without_features},
-                      {"pairs", {{"same_camera", s.same_camera_pairs}, {"cross_camera", s.cross_camera_pairs}, {"loop", s.loop_pairs}}},
-                      {"residual_blocks", s.residual_blocks},
-                      {"parameters", s.parameters},
-                      {"iterations", s.iterations},
-                      {"initial_cost", s.initial_cost},
-                      {"final_cost", s.final_cost},
-                      {"term_costs", {{"order", {"observation", "regularisation", "velocity", "priors", "shared_wobble"}},
-                                      {"initial", s.initial_term_costs}, {"final", s.final_term_costs}}},
-                      {"shared_wobble_links", s.shared_wobble_links},
-                      {"converged", s.converged},
-                      {"termination", s.termination},
-                      {"linear_solver", s.linear_solver},
-                      {"threads", s.threads},
-                      {"seconds", {{"frontend", s.frontend_seconds}, {"init", s.init_seconds}, {"solve", s.solve_seconds},
-                                   {"linear_solver", s.linear_solver_seconds}, {"jacobians", s.jacobian_seconds}}},
-                      {"frontend_ms_per_frame", {{"features", s.feature_ms_per_frame}, {"matching", s.matching_ms_per_frame}}}};
+  nlohmann::json j = {
+      {"format", "panoscan-tracking-stats"},
+      {"version", 1},
+      {"mode", s.mode},
+      {"frames", s.frames},
+      {"landmarks", s.landmarks},
+      {"observations", s.observations},
+      {"frames_without_observations", s.frames_without_observations},
+      {"frames_without_features", s.frames_without_features},
+      {"pairs", {{"same_camera", s.same_camera_pairs}, {"cross_camera", s.cross_camera_pairs}, {"loop", s.loop_pairs}}},
+      {"residual_blocks", s.residual_blocks},
+      {"parameters", s.parameters},
+      {"iterations", s.iterations},
+      {"initial_cost", s.initial_cost},
+      {"final_cost", s.final_cost},
+      {"term_costs",
+       {{"order", {"observation", "regularisation", "velocity", "priors", "shared_wobble"}},
+        {"initial", s.initial_term_costs},
+        {"final", s.final_term_costs}}},
+      {"shared_wobble_links", s.shared_wobble_links},
+      {"converged", s.converged},
+      {"termination", s.termination},
+      {"linear_solver", s.linear_solver},
+      {"threads", s.threads},
+      {"seconds",
+       {{"frontend", s.frontend_seconds},
+        {"init", s.init_seconds},
+        {"solve", s.solve_seconds},
+        {"linear_solver", s.linear_solver_seconds},
+        {"jacobians", s.jacobian_seconds}}},
+      {"frontend_ms_per_frame", {{"features", s.feature_ms_per_frame}, {"matching", s.matching_ms_per_frame}}}};
   return j.dump(2) + "\n";
 }
 
@@ -257,7 +271,8 @@ std::string tracking_stats_json(const TrackingResult& result, const RigInfo& rig
   const TrackingVerdict& v = result.verdict;
   nlohmann::json checks = nlohmann::json::array();
   for (const TrackingCheck& c : v.checks)
-    checks.push_back({{"name", c.name}, {"passed", c.passed}, {"value", c.value}, {"limit", c.limit}, {"detail", c.detail}});
+    checks.push_back(
+        {{"name", c.name}, {"passed", c.passed}, {"value", c.value}, {"limit", c.limit}, {"detail", c.detail}});
   j["verdict"] = {{"checked", v.checked},
                   {"reliable", v.reliable},
                   {"first_failure", v.first_failure()},
@@ -271,9 +286,8 @@ std::string tracking_stats_json(const TrackingResult& result, const RigInfo& rig
       gap.push_back(f.gap_deg);
       confidence.push_back(f.confidence);
     }
-    frames[rig.sensors[s].name] = {{"observations", std::move(observations)},
-                                   {"gap_deg", std::move(gap)},
-                                   {"confidence", std::move(confidence)}};
+    frames[rig.sensors[s].name] = {
+        {"observations", std::move(observations)}, {"gap_deg", std::move(gap)}, {"confidence", std::move(confidence)}};
   }
   j["frames"] = std::move(frames);
   return j.dump(2) + "\n";

@@ -88,9 +88,9 @@ struct RegularisationCost {
     invert(q_world_from_axis, t_world_from_axis, q_axis_from_world, t_axis_from_world);
     T q_a[4], t_a[3], q_b[4], t_b[3], q_r[4], t_r[3], q_c[4], t_c[3];
     compose(q_world_from_axis, t_world_from_axis, q_rotation, t_zero, q_a, t_a);  // T_u R(alpha)
-    compose(q_a, t_a, q_axis_from_world, t_axis_from_world, q_b, t_b);           // ... T_u^-1
-    compose(q_b, t_b, q_world_from_rig, t_world_from_rig, q_r, t_r);             // ... T_r
-    compose(q_r, t_r, q_ref_from_cam, t_ref_from_cam, q_c, t_c);                 // ... T_c (expected world_from_cam)
+    compose(q_a, t_a, q_axis_from_world, t_axis_from_world, q_b, t_b);            // ... T_u^-1
+    compose(q_b, t_b, q_world_from_rig, t_world_from_rig, q_r, t_r);              // ... T_r
+    compose(q_r, t_r, q_ref_from_cam, t_ref_from_cam, q_c, t_c);                  // ... T_c (expected world_from_cam)
     T q_cam_from_world[4], t_cam_from_world[3];
     invert(q_world_from_cam, t_world_from_cam, q_cam_from_world, t_cam_from_world);
     T q_error[4], t_error[3];
@@ -260,7 +260,8 @@ struct PosePriorCost {
     return true;
   }
   static ceres::CostFunction* create(const double* q_prior, const double* t_prior, double sigma_t, double sigma_r) {
-    return new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(new PosePriorCost(q_prior, t_prior, sigma_t, sigma_r));
+    return new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(
+        new PosePriorCost(q_prior, t_prior, sigma_t, sigma_r));
   }
   double q_prior_inverse_[4], t_prior_[3], sigma_t_, sigma_r_;
 };

@@ -58,10 +58,12 @@ class IterationLogger : public ceres::IterationCallback {
  public:
   explicit IterationLogger(std::string origin) : origin_(std::move(origin)) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& it) override {
-    log_info(fmt::format("{}: LM iteration {:3d} cost {:.6e} change {:+.3e} {} radius {:.2e} linear solver {:.2f} s, "
-                         "iteration {:.2f} s", origin_, it.iteration, it.cost, -it.cost_change,
-                         it.step_is_successful ? "accepted" : "rejected", it.trust_region_radius,
-                         it.linear_solver_iterations > 0 ? it.step_solver_time_in_seconds : 0.0, it.iteration_time_in_seconds));
+    log_info(
+        fmt::format("{}: LM iteration {:3d} cost {:.6e} change {:+.3e} {} radius {:.2e} linear solver {:.2f} s, "
+                    "iteration {:.2f} s",
+                    origin_, it.iteration, it.cost, -it.cost_change, it.step_is_successful ? "accepted" : "rejected",
+                    it.trust_region_radius, it.linear_solver_iterations > 0 ? it.step_solver_time_in_seconds : 0.0,
+                    it.iteration_time_in_seconds));
     return ceres::SOLVER_CONTINUE;
   }
 
@@ -75,8 +77,8 @@ std::vector<double> azimuths(const std::vector<Rigid3d>& world_from_cam, const R
                              const Rigid3d& ref_from_cam) {
   std::vector<double> alpha;
   for (const Rigid3d& pose : world_from_cam) {
-    const Eigen::Matrix3d rotation =
-        world_from_axis.linear().transpose() * pose.linear() * ref_from_cam.linear().transpose() * world_from_axis.linear();
+    const Eigen::Matrix3d rotation = world_from_axis.linear().transpose() * pose.linear() *
+                                     ref_from_cam.linear().transpose() * world_from_axis.linear();
     const double raw = tracking_init::twist_angle(rotation, Eigen::Vector3d::UnitZ());
     alpha.push_back(alpha.empty() ? raw : alpha.back() + wrap_pi(raw - alpha.back()));
   }
@@ -112,7 +114,8 @@ TrackingState initialise_tracking_state(const ScanIndex& scan, const FrontendRes
   const int ref = st.ref;
   if (int(frontend.features.size()) != st.sensor_count)
     throw make_error(st.origin, "frontend", "front end result does not match the scan's sensors");
-  if (scan.frames[ref].empty()) throw make_error(st.origin, scan.rig.sensors[ref].name, "the reference camera has no frames");
+  if (scan.frames[ref].empty())
+    throw make_error(st.origin, scan.rig.sensors[ref].name, "the reference camera has no frames");
   const bool ba_only = options.mode == TrackingMode::kBaOnly;
   st.use_regularisation = !ba_only && options.pose_regularisation;
   st.use_velocity = st.use_regularisation && options.velocity_smoothness;  // Eq. 3 acts through the azimuths of Eq. 2
@@ -126,9 +129,11 @@ TrackingState initialise_tracking_state(const ScanIndex& scan, const FrontendRes
   int verified = 0;
   const std::vector<Rigid3d> odometry = tracking_init::chain_odometry(frontend, ref, &verified);
   if (scan.frames[ref].size() > 1 && verified == 0)
-    throw make_error(st.origin, scan.rig.sensors[ref].name, "no verified frame pair in the reference camera (no features?)");
+    throw make_error(st.origin, scan.rig.sensors[ref].name,
+                     "no verified frame pair in the reference camera (no features?)");
   const tracking_init::AxisEstimate axis0 = tracking_init::fit_axis(odometry);
-  if (!axis0.from_rotation) log_warn(st.origin + ": too little rotation for an axis estimate; starting from the camera's up axis");
+  if (!axis0.from_rotation)
+    log_warn(st.origin + ": too little rotation for an axis estimate; starting from the camera's up axis");
   const Rigid3d world_from_axis0 = axis_frame(axis0.point, axis0.direction, odometry[0]);
   for (const FrameEntry& e : scan.frames[ref]) st.ref_times.push_back(e.timestamp);
   const std::vector<double> ref_alpha0 = azimuths(odometry, world_from_axis0, Rigid3d::Identity());
@@ -140,7 +145,8 @@ TrackingState initialise_tracking_state(const ScanIndex& scan, const FrontendRes
     st.extrinsics[s] = PoseBlock::from(scan.rig.sensors[s].ref_from_cam);
     for (std::size_t f = 0; f < scan.frames[s].size(); ++f) {
       const double a = interpolate(st.ref_times, ref_alpha0, scan.frames[s][f].timestamp);
-      const Rigid3d model = world_from_axis0 * axis_rotation(a) * world_from_axis0.inverse() * scan.rig.sensors[s].ref_from_cam;
+      const Rigid3d model =
+          world_from_axis0 * axis_rotation(a) * world_from_axis0.inverse() * scan.rig.sensors[s].ref_from_cam;
       st.poses[s].push_back(PoseBlock::from(s == ref ? odometry[f] : model));
       st.alpha[s].push_back(s == ref ? ref_alpha0[f] : a);
     }
@@ -216,11 +222,11 @@ void add_regularisation_factors(FactorGraph& graph, TrackingState& st, const Tra
     PoseBlock& cam = s == st.ref ? st.identity : st.extrinsics[s];
     for (std::size_t f = 0; f < st.poses[s].size(); ++f)
       graph.blocks[kRegularisation].push_back(problem.AddResidualBlock(
-          tf::RegularisationCost::create(sigma_t, sigma_r), nullptr, st.poses[s][f].q, st.poses[s][f].t, &st.alpha[s][f],
-          st.axis.q, st.axis.t, st.rig.q, st.rig.t, cam.q, cam.t));
+          tf::RegularisationCost::create(sigma_t, sigma_r), nullptr, st.poses[s][f].q, st.poses[s][f].t,
+          &st.alpha[s][f], st.axis.q, st.axis.t, st.rig.q, st.rig.t, cam.q, cam.t));
   }
-  graph.blocks[kPriors].push_back(
-      problem.AddResidualBlock(tf::PosePriorCost::create(st.axis.q, st.axis.t, 1.0, 1.0), nullptr, st.axis.q, st.axis.t));
+  graph.blocks[kPriors].push_back(problem.AddResidualBlock(tf::PosePriorCost::create(st.axis.q, st.axis.t, 1.0, 1.0),
+                                                           nullptr, st.axis.q, st.axis.t));
   const bool refine_extrinsics = options.mode != TrackingMode::kFixedExtrinsics;
   // The calibration as a prior on T_c (see tracking.h).
   for (int s = 0; s < st.sensor_count; ++s)
@@ -263,8 +269,9 @@ void add_velocity_factors(FactorGraph& graph, TrackingState& st, const TrackingO
   const double sigma_accel = deg2rad(options.angular_accel_std_deg_s2);
   for (const FrameNode& n : st.nodes) {
     if (!instants.empty() && n.t - instants.back().t < options.same_time_s) {
-      graph.blocks[kVelocity].push_back(graph.problem->AddResidualBlock(
-          tf::SameTimeCost::create(1e-6), nullptr, &st.alpha[instants.back().s][instants.back().f], &st.alpha[n.s][n.f]));
+      graph.blocks[kVelocity].push_back(graph.problem->AddResidualBlock(tf::SameTimeCost::create(1e-6), nullptr,
+                                                                        &st.alpha[instants.back().s][instants.back().f],
+                                                                        &st.alpha[n.s][n.f]));
       continue;
     }
     instants.push_back(n);
@@ -272,8 +279,8 @@ void add_velocity_factors(FactorGraph& graph, TrackingState& st, const TrackingO
   for (std::size_t k = 1; k + 1 < instants.size(); ++k) {
     const FrameNode &a = instants[k - 1], &b = instants[k], &c = instants[k + 1];
     const double sigma = sigma_accel * (options.velocity_std_scales_with_dt ? 0.5 * (c.t - a.t) : 1.0);
-    graph.blocks[kVelocity].push_back(graph.problem->AddResidualBlock(tf::VelocityCost::create(a.t, b.t, c.t, sigma), nullptr,
-                                                                      &st.alpha[a.s][a.f], &st.alpha[b.s][b.f],
+    graph.blocks[kVelocity].push_back(graph.problem->AddResidualBlock(tf::VelocityCost::create(a.t, b.t, c.t, sigma),
+                                                                      nullptr, &st.alpha[a.s][a.f], &st.alpha[b.s][b.f],
                                                                       &st.alpha[c.s][c.f]));
   }
 }
@@ -323,7 +330,8 @@ ceres::Solver::Summary solve_tracking_graph(FactorGraph& graph, const TrackingOp
   solver_options.minimizer_type = ceres::TRUST_REGION;
   solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   solver_options.max_num_iterations = options.max_iterations;
-  solver_options.num_threads = options.threads > 0 ? options.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+  solver_options.num_threads =
+      options.threads > 0 ? options.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.logging_type = ceres::SILENT;
   // No explicit ParameterBlockOrdering: Ceres orders the blocks of a user ordering by address, which
@@ -374,10 +382,12 @@ TrackingResult extract_tracking_result(const TrackingState& st, const ScanIndex&
         pose = st.poses[s][f].pose();
       } else if (st.use_regularisation) {  // single-camera mode: the other cameras follow the Eq. 2 model
         const double a = interpolate(st.ref_times, st.alpha[ref], scan.frames[s][f].timestamp);
-        pose = st.axis.pose() * axis_rotation(a) * st.axis.pose().inverse() * st.rig.pose() * trajectory.ref_from_cam[s];
+        pose =
+            st.axis.pose() * axis_rotation(a) * st.axis.pose().inverse() * st.rig.pose() * trajectory.ref_from_cam[s];
       } else {  // ... or, without Eq. 2, the rotation about the fitted axis
         const double a = interpolate(st.ref_times, ref_alpha, scan.frames[s][f].timestamp);
-        pose = trajectory.world_from_axis * axis_rotation(a) * trajectory.world_from_axis.inverse() * trajectory.ref_from_cam[s];
+        pose = trajectory.world_from_axis * axis_rotation(a) * trajectory.world_from_axis.inverse() *
+               trajectory.ref_from_cam[s];
       }
       all_finite = all_finite && finite(pose);
       trajectory.world_from_cam[s].push_back({scan.frames[s][f].timestamp, pose});

@@ -40,20 +40,20 @@ struct FrameNode {
 // The variables of the graph and what they are built from.
 struct TrackingState {
   int sensor_count = 0, ref = 0;
-  std::string origin;                                   // the scan, for messages
-  std::vector<char> active;                             // per sensor: in the graph
+  std::string origin;        // the scan, for messages
+  std::vector<char> active;  // per sensor: in the graph
   bool use_regularisation = false, use_velocity = false;
-  std::vector<std::vector<PoseBlock>> poses;            // T_ci (world_from_cam) per sensor, per frame
-  std::vector<std::vector<double>> alpha;               // alpha_ci, unwrapped
-  std::vector<PoseBlock> extrinsics;                    // T_c (ref_from_cam)
-  PoseBlock axis;                                       // T_u (world_from_axis)
-  PoseBlock rig;                                        // T_r (world_from_rig)
-  PoseBlock identity;                                   // the reference camera's T_c, held constant
-  std::vector<double> ref_times;                        // timestamps of the reference frames
-  std::vector<std::vector<Observation>> tracks;         // landmarks restricted to the active sensors
-  std::vector<std::array<double, 3>> landmarks;         // y_j
-  std::vector<std::vector<int>> observation_count;      // per sensor, per frame
-  std::vector<FrameNode> nodes;                         // frames of the active cameras in time order
+  std::vector<std::vector<PoseBlock>> poses;        // T_ci (world_from_cam) per sensor, per frame
+  std::vector<std::vector<double>> alpha;           // alpha_ci, unwrapped
+  std::vector<PoseBlock> extrinsics;                // T_c (ref_from_cam)
+  PoseBlock axis;                                   // T_u (world_from_axis)
+  PoseBlock rig;                                    // T_r (world_from_rig)
+  PoseBlock identity;                               // the reference camera's T_c, held constant
+  std::vector<double> ref_times;                    // timestamps of the reference frames
+  std::vector<std::vector<Observation>> tracks;     // landmarks restricted to the active sensors
+  std::vector<std::array<double, 3>> landmarks;     // y_j
+  std::vector<std::vector<int>> observation_count;  // per sensor, per frame
+  std::vector<FrameNode> nodes;                     // frames of the active cameras in time order
 };
 
 // The Ceres problem with the blocks of each kind of factor (for the cost of each term).
@@ -89,8 +89,8 @@ ceres::Solver::Summary solve_tracking_graph(FactorGraph& graph, const TrackingOp
 
 // The trajectory of every frame of the scan (inactive cameras follow the Eq. 2 model) and the
 // azimuths; sets *all_finite.
-TrackingResult extract_tracking_result(const TrackingState& state, const ScanIndex& scan, const TrackingOptions& options,
-                                       bool* all_finite);
+TrackingResult extract_tracking_result(const TrackingState& state, const ScanIndex& scan,
+                                       const TrackingOptions& options, bool* all_finite);
 
 // Unwrapped azimuths of poses about the axis of world_from_axis (for a camera with extrinsics
 // ref_from_cam): the twist of T_u^-1 T_ci T_c^-1 T_u about z.

@@ -131,8 +131,9 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
   for (std::size_t k = 1; k < azimuth.size(); ++k)
     worst_backward_deg = std::max(worst_backward_deg, -direction * rad2deg(azimuth[k] - azimuth[k - 1]));
   add("monotone", worst_backward_deg <= v.max_backward_step_deg, worst_backward_deg, v.max_backward_step_deg,
-      fmt::format("the azimuth steps back by up to {:.2f} deg between frames (at most {:.1f}); the rotator turns one way",
-                  worst_backward_deg, v.max_backward_step_deg));
+      fmt::format(
+          "the azimuth steps back by up to {:.2f} deg between frames (at most {:.1f}); the rotator turns one way",
+          worst_backward_deg, v.max_backward_step_deg));
 
   // pairs and loop: the front end's verified frame pairs.
   for (const bool loop : {false, true}) {
@@ -141,11 +142,12 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
     const char* what = loop ? "loop-closure pairs" : "verified frame pairs";
     const double min_share = loop ? v.min_consistent_loop_share : v.min_consistent_pair_share;
     add(loop ? "loop" : "pairs", share >= min_share, share, min_share,
-        p.pairs == 0 ? fmt::format("no {} to compare with", what)
-                     : fmt::format("{} of {} {} agree with the tracked poses within {:.1f} deg / {:.0f} mm (worst {:.2f} "
-                                   "deg / {:.0f} mm)",
-                                   p.consistent, p.pairs, what, v.pair_rotation_tolerance_deg,
-                                   v.pair_translation_tolerance_m * 1e3, p.worst_rotation_deg, p.worst_translation_m * 1e3));
+        p.pairs == 0
+            ? fmt::format("no {} to compare with", what)
+            : fmt::format("{} of {} {} agree with the tracked poses within {:.1f} deg / {:.0f} mm (worst {:.2f} "
+                          "deg / {:.0f} mm)",
+                          p.consistent, p.pairs, what, v.pair_rotation_tolerance_deg,
+                          v.pair_translation_tolerance_m * 1e3, p.worst_rotation_deg, p.worst_translation_m * 1e3));
   }
 
   // residuals
@@ -154,8 +156,8 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
       std::count_if(residual_norms.begin(), residual_norms.end(), [&](double r) { return r > outlier_limit; });
   const double outlier_share = residual_norms.empty() ? 0.0 : double(outliers) / residual_norms.size();
   add("residuals", outlier_share <= v.max_outlier_share, outlier_share, v.max_outlier_share,
-      fmt::format("{} of {} observations have a whitened residual above {:.1f} (share {:.3f}, at most {:.2f})", outliers,
-                  residual_norms.size(), outlier_limit, outlier_share, v.max_outlier_share));
+      fmt::format("{} of {} observations have a whitened residual above {:.1f} (share {:.3f}, at most {:.2f})",
+                  outliers, residual_norms.size(), outlier_limit, outlier_share, v.max_outlier_share));
 
   // extrinsics: only where the graph estimates them.
   double worst_rotation_deg = 0, worst_translation_m = 0;
@@ -173,18 +175,21 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
       worst_camera = scan.rig.sensors[s].name;
     }
   }
-  add("extrinsics", worst_rotation_deg <= v.max_extrinsics_change_deg && worst_translation_m <= v.max_extrinsics_change_m,
+  add("extrinsics",
+      worst_rotation_deg <= v.max_extrinsics_change_deg && worst_translation_m <= v.max_extrinsics_change_m,
       worst_rotation_deg, v.max_extrinsics_change_deg,
       worst_camera.empty()
           ? std::string("the extrinsics stay at the calibration")
-          : fmt::format("{}'s extrinsics moved {:.2f} deg / {:.1f} mm from rig.json's calibration (at most {:.1f} deg / "
-                        "{:.0f} mm): the calibration is wrong or the tracking failed",
-                        worst_camera, worst_rotation_deg, worst_translation_m * 1e3, v.max_extrinsics_change_deg,
-                        v.max_extrinsics_change_m * 1e3));
+          : fmt::format(
+                "{}'s extrinsics moved {:.2f} deg / {:.1f} mm from rig.json's calibration (at most {:.1f} deg / "
+                "{:.0f} mm): the calibration is wrong or the tracking failed",
+                worst_camera, worst_rotation_deg, worst_translation_m * 1e3, v.max_extrinsics_change_deg,
+                v.max_extrinsics_change_m * 1e3));
 
   // axis: against the reference camera's up (-y) at its first frame; the axis' sign is arbitrary.
-  const Eigen::Vector3d axis_in_camera = result.trajectory.world_from_cam[ref].front().world_from_cam.linear().transpose() *
-                                         result.trajectory.world_from_axis.linear().col(2);
+  const Eigen::Vector3d axis_in_camera =
+      result.trajectory.world_from_cam[ref].front().world_from_cam.linear().transpose() *
+      result.trajectory.world_from_axis.linear().col(2);
   const double tilt_deg = rad2deg(std::acos(std::min(1.0, std::abs(axis_in_camera.normalized().y()))));
   add("axis", tilt_deg <= v.max_axis_tilt_deg, tilt_deg, v.max_axis_tilt_deg,
       fmt::format("the rotation axis is {:.1f} deg from the reference camera's vertical (at most {:.0f})", tilt_deg,

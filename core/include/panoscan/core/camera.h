@@ -26,9 +26,7 @@ struct PinholeIntrinsics {
     return {fx * point_in_cam.x() / point_in_cam.z() + cx, fy * point_in_cam.y() / point_in_cam.z() + cy};
   }
   // Point at depth z (along the optical axis) seen at pixel (u, v).
-  Eigen::Vector3d backproject(double u, double v, double z) const {
-    return {(u - cx) / fx * z, (v - cy) / fy * z, z};
-  }
+  Eigen::Vector3d backproject(double u, double v, double z) const { return {(u - cx) / fx * z, (v - cy) / fy * z, z}; }
   bool contains(const Eigen::Vector2d& pixel) const {
     return pixel.x() >= -0.5 && pixel.y() >= -0.5 && pixel.x() < width - 0.5 && pixel.y() < height - 0.5;
   }

@@ -56,8 +56,7 @@ Rigid3d fit_rigid_transform_of_poses(const std::vector<Rigid3d>& from, const std
 
 // Exact Euclidean distance from a point to a triangle (closest point on the triangle,
 // including its edges and vertices). Degenerate triangles fall back to the closest segment.
-double point_triangle_distance(const Eigen::Vector3d& point, const Eigen::Vector3d& a,
-                               const Eigen::Vector3d& b, const Eigen::Vector3d& c,
-                               Eigen::Vector3d* closest = nullptr);
+double point_triangle_distance(const Eigen::Vector3d& point, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                               const Eigen::Vector3d& c, Eigen::Vector3d* closest = nullptr);
 
 }  // namespace panoscan

@@ -42,8 +42,8 @@ struct PointCloud {
 };
 
 struct PlyWriteOptions {
-  bool double_positions = false;       // x y z as double instead of float
-  std::vector<std::string> comments;   // "comment ..." header lines (one line each, no newlines)
+  bool double_positions = false;      // x y z as double instead of float
+  std::vector<std::string> comments;  // "comment ..." header lines (one line each, no newlines)
   // Extra per-point float properties (name, one value per point), e.g. ("distance", errors) so that
   // CloudCompare shows them as scalar fields.
   std::vector<std::pair<std::string, std::vector<float>>> extra_properties;

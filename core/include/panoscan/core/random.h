@@ -32,9 +32,9 @@ class RandomStream {
                std::int64_t lane = 0);
 
   std::uint64_t next_u64();
-  double uniform();                       // [0, 1)
-  double uniform(double lo, double hi);   // [lo, hi)
-  double normal();                        // N(0, 1)
+  double uniform();                      // [0, 1)
+  double uniform(double lo, double hi);  // [lo, hi)
+  double normal();                       // N(0, 1)
   double normal(double mean, double stddev) { return mean + stddev * normal(); }
   int uniform_int(int lo, int hi_inclusive);
 

@@ -62,8 +62,8 @@ struct ScanIndex {
 
 struct RgbdFrame {
   double timestamp = 0.0;
-  ImageU8 rgb;      // 3 channels
-  ImageF32 depth;   // metres, 0 = invalid
+  ImageU8 rgb;     // 3 channels
+  ImageF32 depth;  // metres, 0 = invalid
 };
 
 // Reads and validates rig.json and the listings (entries present in both listings with equal

@@ -15,6 +15,8 @@ inline double seconds_since(SteadyTime start) {
 }
 
 // Seconds from `from` to `to`.
-inline double seconds_between(SteadyTime from, SteadyTime to) { return std::chrono::duration<double>(to - from).count(); }
+inline double seconds_between(SteadyTime from, SteadyTime to) {
+  return std::chrono::duration<double>(to - from).count();
+}
 
 }  // namespace panoscan

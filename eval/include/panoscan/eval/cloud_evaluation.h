@@ -27,7 +27,7 @@ struct CloudEvalOptions {
   ErrorColouring colouring;
   double histogram_max_m = 0.0;  // <= 0: twice the largest threshold
   int histogram_bins = 100;
-  int threads = 0;               // 0 = all cores
+  int threads = 0;  // 0 = all cores
 };
 
 // Keys (all optional; defaults as in the structs):
@@ -48,11 +48,11 @@ struct CloudEvalReport {
   double mesh_area_m2 = 0.0;
   std::size_t cloud_points = 0;
   bool cloud_has_colours = false, cloud_has_variances = false;
-  CloudEvalOptions options;              // as used (viewpoints resolved into options.metrics)
+  CloudEvalOptions options;  // as used (viewpoints resolved into options.metrics)
   CloudMetrics metrics;
-  Histogram accuracy_histogram_m;        // reconstructed points -> mesh
-  Histogram completeness_histogram_m;    // visible samples -> cloud (empty without completeness)
-  ColourLegend colour_legend;            // when a coloured PLY was written
+  Histogram accuracy_histogram_m;                 // reconstructed points -> mesh
+  Histogram completeness_histogram_m;             // visible samples -> cloud (empty without completeness)
+  ColourLegend colour_legend;                     // when a coloured PLY was written
   double seconds_bvh = 0.0, seconds_total = 0.0;  // the rest is in metrics
 };
 

@@ -29,8 +29,8 @@ class MeshDistance;
 
 struct CompletenessOptions {
   bool enabled = true;
-  double samples_per_m2 = 4000.0;          // ~1.6 cm spacing
-  std::size_t max_samples = 2000000;       // cap for very large meshes
+  double samples_per_m2 = 4000.0;     // ~1.6 cm spacing
+  std::size_t max_samples = 2000000;  // cap for very large meshes
   std::uint64_t seed = 1;
   std::vector<std::uint8_t> triangle_mask;  // empty = all triangles; else 1 per triangle
   VisibilityOptions visibility;             // no viewpoints = the whole (masked) surface
@@ -60,11 +60,11 @@ struct CloudMetrics {
   std::size_t points_beyond_cutoff = 0;
 
   bool has_completeness = false;
-  std::size_t surface_samples = 0;   // drawn on the (masked) surface
-  std::size_t visible_samples = 0;   // kept by the visibility test
-  double sampled_area_m2 = 0.0;      // area of the (masked) surface
-  double visible_area_m2 = 0.0;      // sampled_area_m2 * visible / drawn (an estimate)
-  ErrorStats completeness_m;         // visible samples -> nearest point, metres
+  std::size_t surface_samples = 0;  // drawn on the (masked) surface
+  std::size_t visible_samples = 0;  // kept by the visibility test
+  double sampled_area_m2 = 0.0;     // area of the (masked) surface
+  double visible_area_m2 = 0.0;     // sampled_area_m2 * visible / drawn (an estimate)
+  ErrorStats completeness_m;        // visible samples -> nearest point, metres
 
   std::vector<ThresholdScore> scores;  // one per threshold
 

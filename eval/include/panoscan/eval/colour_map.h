@@ -10,9 +10,9 @@
 namespace panoscan::eval {
 
 enum class ColourMap {
-  kViridis,    // perceptually uniform, dark purple (low) to yellow (high)
-  kTurbo,      // rainbow-like, dark blue (low) to dark red (high)
-  kCoolWarm,   // diverging, blue (negative) - grey (0) - red (positive), for signed errors
+  kViridis,   // perceptually uniform, dark purple (low) to yellow (high)
+  kTurbo,     // rainbow-like, dark blue (low) to dark red (high)
+  kCoolWarm,  // diverging, blue (negative) - grey (0) - red (positive), for signed errors
 };
 
 ColourMap parse_colour_map(const std::string& name);  // "viridis", "turbo", "coolwarm"; throws Error

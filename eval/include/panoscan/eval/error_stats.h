@@ -11,11 +11,11 @@ namespace panoscan::eval {
 // (never a silent 0).
 struct ErrorStats {
   std::size_t count = 0;
-  double rmse = 0.0;    // sqrt(mean(e^2)), over all values
+  double rmse = 0.0;  // sqrt(mean(e^2)), over all values
   double mean = 0.0;
   double median = 0.0;
-  double p90 = 0.0;     // percentiles by linear interpolation between order statistics
-  double p99 = 0.0;     // (numpy's default, "type 7")
+  double p90 = 0.0;  // percentiles by linear interpolation between order statistics
+  double p99 = 0.0;  // (numpy's default, "type 7")
   double max = 0.0;
 };
 

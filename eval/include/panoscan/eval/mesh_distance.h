@@ -22,9 +22,9 @@
 namespace panoscan::eval {
 
 struct ClosestPoint {
-  double distance = 0.0;                                // metres, >= 0
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();      // closest point on the mesh
-  int triangle = -1;                                    // its triangle (lowest index on ties)
+  double distance = 0.0;                            // metres, >= 0
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();  // closest point on the mesh
+  int triangle = -1;                                // its triangle (lowest index on ties)
 };
 
 class MeshDistance {
@@ -41,8 +41,7 @@ class MeshDistance {
 
   // Distances of all points, in parallel. Throws Error naming `origin` and the point index if a
   // point is not finite.
-  std::vector<double> distances(const std::vector<Eigen::Vector3d>& points,
-                                const std::string& origin = "points") const;
+  std::vector<double> distances(const std::vector<Eigen::Vector3d>& points, const std::string& origin = "points") const;
 
   // True if the open segment from `from` to `to`, shortened by `end_margin_m` at the `to` end, hits
   // a triangle (for "is this surface point visible from that viewpoint").

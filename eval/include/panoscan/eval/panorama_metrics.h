@@ -13,16 +13,16 @@
 namespace panoscan::eval {
 
 struct PanoramaDepthError {
-  std::size_t overlap_pixels = 0;        // both valid: the pixels every figure below is over
-  std::size_t estimated_only_pixels = 0; // depth where the truth has none
-  std::size_t truth_only_pixels = 0;     // truth the reconstruction missed
-  double coverage = 0.0;                 // overlap / valid truth pixels
-  ErrorStats abs_error_m;                // |est - truth| per pixel: rmse is the per-pixel RMSE
-  double mean_signed_error_m = 0.0;      // bias (positive = reconstruction too far)
+  std::size_t overlap_pixels = 0;         // both valid: the pixels every figure below is over
+  std::size_t estimated_only_pixels = 0;  // depth where the truth has none
+  std::size_t truth_only_pixels = 0;      // truth the reconstruction missed
+  double coverage = 0.0;                  // overlap / valid truth pixels
+  ErrorStats abs_error_m;                 // |est - truth| per pixel: rmse is the per-pixel RMSE
+  double mean_signed_error_m = 0.0;       // bias (positive = reconstruction too far)
   // RMSE with each pixel weighted by its solid angle (sin of the polar angle): every direction
   // counts equally, the poles are not over-represented.
   double rmse_solid_angle_weighted_m = 0.0;
-  ImageF32 error_m;                      // est - truth; NaN outside the overlap
+  ImageF32 error_m;  // est - truth; NaN outside the overlap
 };
 
 // Throws Error naming `origin` if the images differ in size, are empty, not single-channel, or

@@ -33,8 +33,8 @@ struct Line3d {
 Line3d axis_line(const Rigid3d& world_from_axis);
 
 struct AxisError {
-  double angle_deg = 0.0;          // between the lines, in [0, 90] (a line has no sign)
-  double line_distance_m = 0.0;    // closest approach of the two lines
+  double angle_deg = 0.0;              // between the lines, in [0, 90] (a line has no sign)
+  double line_distance_m = 0.0;        // closest approach of the two lines
   double offset_at_reference_m = 0.0;  // distance from truth.point to the estimated line
 };
 // The closest approach of nearly parallel lines can lie far away; offset_at_reference_m measures

@@ -9,13 +9,13 @@
 namespace panoscan::eval {
 
 struct ResultTable {
-  std::string title;                 // e.g. "Table 3: fusion, RMSE"
+  std::string title;  // e.g. "Table 3: fusion, RMSE"
   std::string unit = "mm";
-  std::vector<std::string> methods;  // rows, in insertion order
-  std::vector<std::string> scans;    // columns, in insertion order
+  std::vector<std::string> methods;         // rows, in insertion order
+  std::vector<std::string> scans;           // columns, in insertion order
   std::vector<std::vector<double>> values;  // [method][scan]; NaN = not measured
   int decimals = 1;
-  bool lower_is_better = true;       // the best value of each column is set in bold (Markdown)
+  bool lower_is_better = true;  // the best value of each column is set in bold (Markdown)
 
   // Sets a cell, adding the method row and the scan column if they are new.
   void set(const std::string& method, const std::string& scan, double value);

@@ -40,8 +40,8 @@ std::vector<std::pair<std::size_t, std::size_t>> associate_by_timestamp(const st
 struct TrajectoryMetrics {
   std::size_t gt_poses = 0, est_poses = 0, matched_poses = 0;
   Rigid3d gt_from_est = Rigid3d::Identity();  // the ATE alignment (identity when align is off)
-  ErrorStats ate_m;                 // translational, after alignment
-  ErrorStats ate_rotation_deg;      // rotation of gt_i^-1 * (gt_from_est * est_i), beyond TUM
+  ErrorStats ate_m;                           // translational, after alignment
+  ErrorStats ate_rotation_deg;                // rotation of gt_i^-1 * (gt_from_est * est_i), beyond TUM
   double rpe_delta_s = 0.0;
   ErrorStats rpe_translation_m;
   ErrorStats rpe_rotation_deg;

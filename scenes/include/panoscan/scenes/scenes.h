@@ -83,7 +83,7 @@ struct GeneratedRoom {
     std::string what;
     Eigen::Vector3f lo, hi;  // bounding box of its triangles
   };
-  std::vector<Placed> furniture;   // pieces and wall decorations
+  std::vector<Placed> furniture;    // pieces and wall decorations
   std::vector<double> clearance_m;  // per position: rig axis to the nearest surface above the floor
   std::vector<double> shared_view;  // per consecutive pair of positions
   int attempt = 0;                  // layouts discarded before this one (no room for positions)

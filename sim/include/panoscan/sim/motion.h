@@ -23,12 +23,12 @@ class MotionModel {
  public:
   MotionModel(const MotionOptions& options, const ScanPosition& position, std::uint64_t seed);
 
-  double duration() const { return duration_; }     // seconds from start to stop
-  double azimuth(double t) const;                    // radians, 0 at t <= 0, turn at t >= duration
-  double angular_velocity(double t) const;           // rad/s
-  double angular_acceleration(double t) const;       // rad/s^2 (analytic)
-  Rigid3d world_from_axis(double t) const;           // ideal, no wobble
-  Rigid3d wobble(double t) const;                    // bracket perturbation
+  double duration() const { return duration_; }  // seconds from start to stop
+  double azimuth(double t) const;                // radians, 0 at t <= 0, turn at t >= duration
+  double angular_velocity(double t) const;       // rad/s
+  double angular_acceleration(double t) const;   // rad/s^2 (analytic)
+  Rigid3d world_from_axis(double t) const;       // ideal, no wobble
+  Rigid3d wobble(double t) const;                // bracket perturbation
   // Unit axis direction and a point on it, in the scene frame.
   Eigen::Vector3d axis_direction() const;
   Eigen::Vector3d axis_point() const;

@@ -21,8 +21,8 @@ double handa_depth_std(double z_m);
 double disparity_model_depth_std(double z_m, double disparity_std);
 
 struct DepthNoiseInput {
-  const ImageF32* clean_depth = nullptr;     // z in metres, 0 = no hit
-  const ImageF32* incidence_cos = nullptr;   // |cos| of the angle between ray and normal
+  const ImageF32* clean_depth = nullptr;    // z in metres, 0 = no hit
+  const ImageF32* incidence_cos = nullptr;  // |cos| of the angle between ray and normal
   const PinholeIntrinsics* intrinsics = nullptr;
   int sensor = 0;
   int frame = 0;

@@ -12,34 +12,34 @@ namespace panoscan {
 class Config;
 
 struct RigOptions {
-  int width = 640;                                  // camera.width
-  int height = 480;                                 // camera.height
-  double focal_px = 570.0;                          // camera.focal_px (at 640 columns; scaled with width)
+  int width = 640;                                       // camera.width
+  int height = 480;                                      // camera.height
+  double focal_px = 570.0;                               // camera.focal_px (at 640 columns; scaled with width)
   std::vector<double> pitches_deg = {45.0, 0.0, -45.0};  // rig.pitches_deg (one camera per entry)
-  int reference_sensor = 1;                         // rig.reference_sensor (the middle camera)
-  double camera_spacing_m = 0.06;                   // rig.camera_spacing_m (vertical, on the bracket)
-  double camera_forward_m = 0.02;                   // rig.camera_forward_m (lens ahead of the bracket plate)
+  int reference_sensor = 1;                              // rig.reference_sensor (the middle camera)
+  double camera_spacing_m = 0.06;                        // rig.camera_spacing_m (vertical, on the bracket)
+  double camera_forward_m = 0.02;                        // rig.camera_forward_m (lens ahead of the bracket plate)
   // Installation of the bracket on the rotator (the unknown T_u): axis_from_bracket.
   std::vector<double> install_offset_m = {0.08, 0.03, 1.10};  // rig.install_offset_m (forward, left, up)
   std::vector<double> install_rpy_deg = {0.6, -1.2, 3.0};     // rig.install_rpy_deg (roll, pitch, yaw)
   // Error of the calibrated extrinsics handed to reconstruction (random direction, this size).
-  double calibration_error_deg = 0.5;               // rig.calibration_error_deg
-  double calibration_error_m = 0.005;               // rig.calibration_error_m
+  double calibration_error_deg = 0.5;  // rig.calibration_error_deg
+  double calibration_error_m = 0.005;  // rig.calibration_error_m
 };
 
 struct MotionOptions {
-  double turn_deg = 360.0;             // motion.turn_deg: total rotation
-  double period_s = 32.0;              // motion.period_s: seconds per 360 deg at cruise speed
-  double ramp_s = 1.0;                 // motion.ramp_s: raised-cosine ramp at start and stop
-  double accel_std_deg_s2 = 1.0;       // motion.accel_std_deg_s2: random angular acceleration std
-  double speed_band_low_hz = 0.1;      // motion.speed_band_hz[0]
-  double speed_band_high_hz = 0.5;     // motion.speed_band_hz[1]
-  double wobble_translation_m = 0.005; // motion.wobble_translation_m: std per axis
-  double wobble_rotation_deg = 0.5;    // motion.wobble_rotation_deg: std per axis
-  double wobble_band_low_hz = 0.5;     // motion.wobble_band_hz[0]
-  double wobble_band_high_hz = 4.0;    // motion.wobble_band_hz[1]
-  double axis_tilt_deg = 0.0;          // motion.axis_tilt_deg: axis vs gravity
-  double axis_tilt_azimuth_deg = 30.0; // motion.axis_tilt_azimuth_deg
+  double turn_deg = 360.0;              // motion.turn_deg: total rotation
+  double period_s = 32.0;               // motion.period_s: seconds per 360 deg at cruise speed
+  double ramp_s = 1.0;                  // motion.ramp_s: raised-cosine ramp at start and stop
+  double accel_std_deg_s2 = 1.0;        // motion.accel_std_deg_s2: random angular acceleration std
+  double speed_band_low_hz = 0.1;       // motion.speed_band_hz[0]
+  double speed_band_high_hz = 0.5;      // motion.speed_band_hz[1]
+  double wobble_translation_m = 0.005;  // motion.wobble_translation_m: std per axis
+  double wobble_rotation_deg = 0.5;     // motion.wobble_rotation_deg: std per axis
+  double wobble_band_low_hz = 0.5;      // motion.wobble_band_hz[0]
+  double wobble_band_high_hz = 4.0;     // motion.wobble_band_hz[1]
+  double axis_tilt_deg = 0.0;           // motion.axis_tilt_deg: axis vs gravity
+  double axis_tilt_azimuth_deg = 30.0;  // motion.axis_tilt_azimuth_deg
 };
 
 struct ShutterOptions {
@@ -63,25 +63,25 @@ struct NoiseOptions {
   double shift_std_px = 0.5;                 // noise.shift_std_px (Handa step 1)
   // Disparity noise std in 1/8-pixel disparity units: 1/6 for handa(-icl), 0.5 for kinect.
   // Negative means "the preset's value".
-  double disparity_std = -1.0;               // noise.disparity_std
+  double disparity_std = -1.0;  // noise.disparity_std
   // Extras beyond the paper (§6.5 limitations), off by default.
-  bool ir_speckle = false;                   // noise.ir_speckle: interference in overlap bands
-  double ir_band_fraction = 0.08;            // noise.ir_band_fraction: image height fraction per band
-  double ir_dropout = 0.3;                   // noise.ir_dropout: probability of a hole in the band
-  double ir_disparity_std = 1.0;             // noise.ir_disparity_std: extra disparity noise in the band
-  bool exposure = false;                     // noise.exposure: per-camera exposure / white balance
-  double exposure_std = 0.12;                // noise.exposure_std: relative gain std
-  double white_balance_std = 0.06;           // noise.white_balance_std: per-channel gain std
-  double colour_noise_std = 0.0;             // noise.colour_noise_std: 8-bit levels
+  bool ir_speckle = false;          // noise.ir_speckle: interference in overlap bands
+  double ir_band_fraction = 0.08;   // noise.ir_band_fraction: image height fraction per band
+  double ir_dropout = 0.3;          // noise.ir_dropout: probability of a hole in the band
+  double ir_disparity_std = 1.0;    // noise.ir_disparity_std: extra disparity noise in the band
+  bool exposure = false;            // noise.exposure: per-camera exposure / white balance
+  double exposure_std = 0.12;       // noise.exposure_std: relative gain std
+  double white_balance_std = 0.06;  // noise.white_balance_std: per-channel gain std
+  double colour_noise_std = 0.0;    // noise.colour_noise_std: 8-bit levels
 
   double effective_disparity_std() const;
 };
 
 struct OutputOptions {
-  int every = 1;                // output.every: render every n-th frame of each camera (paper's n)
-  int max_frames = 0;           // output.frames: frames per camera after `every` (0 = whole turn)
-  bool clean_depth = false;     // output.clean_depth: also write noiseless depth
-  int png_compression = 1;      // output.png_compression: 0..9
+  int every = 1;             // output.every: render every n-th frame of each camera (paper's n)
+  int max_frames = 0;        // output.frames: frames per camera after `every` (0 = whole turn)
+  bool clean_depth = false;  // output.clean_depth: also write noiseless depth
+  int png_compression = 1;   // output.png_compression: 0..9
 };
 
 struct SimOptions {

@@ -50,8 +50,8 @@ class Renderer {
                              int row_end) const;
 
   // The same with coherent packets of 8 rays (rtcIntersect8): Embree's faster path.
-  std::size_t intersect_only_packets(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics,
-                                     int row_begin, int row_end) const;
+  std::size_t intersect_only_packets(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics, int row_begin,
+                                     int row_end) const;
 
   // First hit along a ray from `origin` in direction `direction` (unit); distance or -1.
   double cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, int* triangle = nullptr) const;

@@ -19,9 +19,9 @@ struct RigModel {
   int reference_sensor = 1;
   std::vector<double> pitches_rad;
   Rigid3d axis_from_bracket = Rigid3d::Identity();
-  std::vector<Rigid3d> bracket_from_cam;           // true
-  std::vector<Rigid3d> ref_from_cam_true;          // true extrinsics relative to the reference camera
-  std::vector<Rigid3d> ref_from_cam_calibrated;    // with the configured calibration error
+  std::vector<Rigid3d> bracket_from_cam;         // true
+  std::vector<Rigid3d> ref_from_cam_true;        // true extrinsics relative to the reference camera
+  std::vector<Rigid3d> ref_from_cam_calibrated;  // with the configured calibration error
 
   std::size_t num_sensors() const { return bracket_from_cam.size(); }
   // Pairs (lower, upper) of sensors whose views overlap in a horizontal band: the bottom rows of

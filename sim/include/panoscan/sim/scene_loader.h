@@ -4,8 +4,9 @@
 // materials with their diffuse colour and texture (texture files relative to the model file, or
 // embedded), texture coordinates (channel 0, OBJ convention: v = 1 is the top row) and per-vertex
 // colours (channel 0: PLY red/green/blue, OBJ "v x y z r g b", glTF COLOR_0; see
-// TriangleMesh::vertex_colours for how they combine with materials). Node transforms are applied. The scanning positions and lights come from a JSON file beside the model:
-// <stem>.positions.json, else positions.json in the same folder:
+// TriangleMesh::vertex_colours for how they combine with materials). Node transforms are applied. The scanning
+// positions and lights come from a JSON file beside the model: <stem>.positions.json, else positions.json in the same
+// folder:
 //   {"format": "panoscan-positions", "version": 1,
 //    "positions": [{"name": "SO-1", "floor_point": [x, y, z], "start_heading_deg": 0.0}, ...],
 //    "lights": [{"position": [x, y, z], "intensity": 1.0}, ...]}

@@ -12,8 +12,8 @@ namespace panoscan {
 
 struct FrameTime {
   int sensor = 0;
-  int index = 0;        // frame number of this camera's clock (before `every` selection)
-  double timestamp = 0; // seconds, multiple of 1e-6
+  int index = 0;         // frame number of this camera's clock (before `every` selection)
+  double timestamp = 0;  // seconds, multiple of 1e-6
 };
 
 // All frames that fall within [start_time, start_time + duration], per sensor, in time order,

@@ -25,8 +25,8 @@ struct SimulatedFrame {
   double timestamp = 0.0;
   Rigid3d world_from_cam = Rigid3d::Identity();  // ground truth
   ImageU8 rgb;
-  ImageF32 depth;         // noisy (metres, 0 = invalid), before PNG quantisation
-  ImageF32 clean_depth;   // noiseless z (range-limited), metres
+  ImageF32 depth;        // noisy (metres, 0 = invalid), before PNG quantisation
+  ImageF32 clean_depth;  // noiseless z (range-limited), metres
   ImageI32 triangle_id;
 };
 

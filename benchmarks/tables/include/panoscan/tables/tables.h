@@ -19,11 +19,11 @@
 namespace panoscan::tables {
 
 struct TablesOptions {
-  std::string size = "quick";    // quick | full
-  std::string noise = "handa";   // a sim noise preset: handa (the paper's) | kinect | handa-icl | none
-  std::filesystem::path cache;   // simulated scans; empty = <out>/scans
-  std::filesystem::path out;     // results; may be empty for in-memory runs (then cache is required)
-  int threads = 0;               // 0 = all cores
+  std::string size = "quick";   // quick | full
+  std::string noise = "handa";  // a sim noise preset: handa (the paper's) | kinect | handa-icl | none
+  std::filesystem::path cache;  // simulated scans; empty = <out>/scans
+  std::filesystem::path out;    // results; may be empty for in-memory runs (then cache is required)
+  int threads = 0;              // 0 = all cores
   std::uint64_t seed = 1;
   // The built-in scenes' texture density (scene.texture: icl | rich | plain); part of the scan
   // cache key, so scans of one density are never reused for another.
@@ -36,11 +36,11 @@ struct TablesOptions {
 struct SizePreset {
   std::string name;
   int width = 320, height = 240;
-  int every = 16;                 // the paper's sparsity n
-  int panorama_height = 512;      // H (W = 2H)
-  double tsdf_voxel_m = 0.01;     // the TSDF baseline's voxel (5 mm at full size, as BundleFusion)
-  std::vector<std::string> scans; // e.g. SL-1, SO-1
-  std::vector<std::string> pairs; // e.g. SL-12, SO-13
+  int every = 16;                  // the paper's sparsity n
+  int panorama_height = 512;       // H (W = 2H)
+  double tsdf_voxel_m = 0.01;      // the TSDF baseline's voxel (5 mm at full size, as BundleFusion)
+  std::vector<std::string> scans;  // e.g. SL-1, SO-1
+  std::vector<std::string> pairs;  // e.g. SL-12, SO-13
 };
 SizePreset size_preset(const std::string& size);  // throws Error on an unknown size
 
@@ -53,7 +53,7 @@ struct TableRun {
   std::string name;                       // e.g. "table3"
   std::vector<eval::ResultTable> tables;  // the first is the main table
   std::vector<std::string> notes;
-  std::string settings_json = "{}";       // driver-specific settings, a JSON object
+  std::string settings_json = "{}";                                       // driver-specific settings, a JSON object
   const eval::ResultTable& table(const std::string& title_prefix) const;  // throws if absent
 };
 

@@ -46,8 +46,8 @@
 namespace panoscan {
 
 struct StitchOptions {
-  int width = 0;                       // stitch.width: 0 = the reference camera's width
-  int height = 0;                      // stitch.height: 0 = 2 x width
+  int width = 0;   // stitch.width: 0 = the reference camera's width
+  int height = 0;  // stitch.height: 0 = 2 x width
   // A camera's nearest frame farther than this from the reference frame is left out of the group.
   double max_time_gap_s = 0.0;         // stitch.max_time_gap_s: 0 = half the median reference frame interval
   double max_edge_depth_ratio = 1.05;  // stitch.max_edge_depth_ratio: larger/smaller corner depth of a drawn triangle
@@ -59,7 +59,7 @@ struct StitchOptions {
 // its nearest frame in time (-1 = none within max_time_gap_s; the reference sensor's own entry is
 // reference_frame).
 struct FrameGroup {
-  double timestamp = 0.0;           // the reference frame's
+  double timestamp = 0.0;  // the reference frame's
   std::size_t reference_frame = 0;
   std::vector<int> frame_of_sensor;
 };
@@ -88,7 +88,7 @@ StitchedFrame stitch_group(const ScanIndex& scan, const FrameGroup& group, const
                            const PinholeIntrinsics& stitched, const StitchOptions& options);
 
 struct StitchedScanInfo {
-  std::filesystem::path dir;           // the stitched scan (one camera, "stitched")
+  std::filesystem::path dir;  // the stitched scan (one camera, "stitched")
   PinholeIntrinsics intrinsics;
   std::size_t frames = 0;
   std::size_t missing_camera_frames = 0;  // (group, camera) pairs left out by max_time_gap_s
@@ -107,9 +107,9 @@ StitchedScanInfo write_stitched_scan(const ScanIndex& scan, const std::filesyste
 // merges per-thread sums in arrival order), so the result is reproducible.
 struct StitchedOdometryOptions {
   std::vector<int> iterations_per_level = {20, 10, 5};  // coarse to fine (Open3D's default)
-  double max_depth_difference_m = 0.07;  // correspondence gate (Open3D's reconstruction system default)
+  double max_depth_difference_m = 0.07;                 // correspondence gate (Open3D's reconstruction system default)
   double min_depth_m = 0.0;
-  double max_depth_m = 4.0;              // as the TSDF cut-off
+  double max_depth_m = 4.0;  // as the TSDF cut-off
   void check(const std::string& origin = "<odometry options>") const;
 };
 

@@ -25,8 +25,8 @@
 namespace panoscan {
 
 struct FrontendOptions {
-  int orb_features = 1000;          // ORB keypoints per 640x480 frame (scaled with the image area)
-  double orb_scale_factor = 1.2;    // pyramid scale (sigma_u,v = scale^octave px in Eq. 1)
+  int orb_features = 1000;        // ORB keypoints per 640x480 frame (scaled with the image area)
+  double orb_scale_factor = 1.2;  // pyramid scale (sigma_u,v = scale^octave px in Eq. 1)
   int orb_levels = 8;
   int orb_fast_threshold = 12;
   int max_hamming = 64;             // descriptor distance limit
@@ -35,32 +35,32 @@ struct FrontendOptions {
   bool cross_camera = true;         // matches between cameras (temporally closest frames)
   int cross_overlap_margin_px = 8;  // a keypoint is in the overlap band if it projects this far inside the other image
   bool loop_closure = true;
-  int loop_frames = 4;              // last k frames vs first k frames of each camera
+  int loop_frames = 4;  // last k frames vs first k frames of each camera
   int ransac_iterations = 200;
-  double ransac_sigmas = 3.0;       // inlier threshold: this many std of the 3D point difference
+  double ransac_sigmas = 3.0;  // inlier threshold: this many std of the 3D point difference
   double ransac_min_threshold_m = 0.005;
-  int min_inliers = 12;             // same camera and loop closure
-  int min_cross_inliers = 6;        // across cameras (narrow band)
+  int min_inliers = 12;                  // same camera and loop closure
+  int min_cross_inliers = 6;             // across cameras (narrow band)
   double cross_max_deviation_deg = 3.0;  // cross-camera transform vs calibrated extrinsics
   double cross_max_deviation_m = 0.10;
   double min_depth_m = 0.3, max_depth_m = 8.0;
   double depth_noise_coefficient = 9.49e-4;  // sigma_Z = c * Z^2 (ARCHITECTURE.md §4.1, Handa et al. 2014)
   std::uint64_t seed = 1;
-  int threads = 0;                  // 0 = all cores
-  std::vector<int> sensors;         // sensors to use (empty = all)
+  int threads = 0;           // 0 = all cores
+  std::vector<int> sensors;  // sensors to use (empty = all)
 
   void check(const std::string& origin = "<frontend options>") const;
 };
 
 struct Keypoint {
-  float u = 0, v = 0;   // pixel (OpenCV convention)
-  float depth = 0;      // metres, z along the optical axis
+  float u = 0, v = 0;  // pixel (OpenCV convention)
+  float depth = 0;     // metres, z along the optical axis
   int octave = 0;
 };
 
 struct FrameFeatures {
   double timestamp = 0.0;
-  std::vector<Keypoint> keypoints;                 // only keypoints with valid depth
+  std::vector<Keypoint> keypoints;  // only keypoints with valid depth
   std::vector<std::array<std::uint8_t, 32>> descriptors;
 };
 

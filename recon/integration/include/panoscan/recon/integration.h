@@ -34,7 +34,7 @@ struct PanoramaPoints {
   // the surface (it would intersect skew rays); with it the in-plane position is averaged while
   // the position across the surface is weighted by each pixel's measured precision.
   std::vector<Eigen::Matrix3d> covariances;
-  std::vector<Rgb8> colours;                          // optional (empty or one per point)
+  std::vector<Rgb8> colours;  // optional (empty or one per point)
 };
 
 enum class MergeMethod { kAlignOnly, kAverage, kMap };
@@ -53,12 +53,12 @@ struct IntegrationOptions {
 };
 
 struct IntegrationResult {
-  PointCloud cloud;                  // scene frame; variances = trace(covariance) / 3 per point
+  PointCloud cloud;                         // scene frame; variances = trace(covariance) / 3 per point
   std::vector<std::uint32_t> observations;  // per output point: how many pixels it merges
   std::size_t input_points = 0;
-  std::size_t mutual_pairs = 0;      // mergeable pairs found
-  std::size_t groups = 0;            // disjoint sets with more than one member
-  std::size_t grouped_points = 0;    // input points inside such sets
+  std::size_t mutual_pairs = 0;    // mergeable pairs found
+  std::size_t groups = 0;          // disjoint sets with more than one member
+  std::size_t grouped_points = 0;  // input points inside such sets
 };
 
 // Throws Error on inconsistent input (sizes, non-finite values, non-positive-definite covariances

@@ -49,10 +49,10 @@ struct WarpOptions {
 
 // One raw measurement of a panorama pixel (12 bytes).
 struct PanoramaMeasurement {
-  float radial_m = 0.f;        // distance from the panorama centre along the pixel's ray
+  float radial_m = 0.f;  // distance from the panorama centre along the pixel's ray
   std::uint8_t rgb[3] = {0, 0, 0};
   std::uint8_t sensor = 0;
-  std::uint32_t frame = 0;     // index in the scan's listing of that sensor
+  std::uint32_t frame = 0;  // index in the scan's listing of that sensor
 };
 
 struct PanoramaMeasurements {
@@ -101,22 +101,22 @@ DepthFusionMethod depth_fusion_method_from_string(const std::string& name, const
 // thread count.
 struct FusionOptions {
   DepthFusionMethod method = DepthFusionMethod::kTsa;  // panorama.method
-  double lambda = -1.0;              // panorama.lambda: lambda_b; < 0 = the paper's default, scaled (above)
+  double lambda = -1.0;                // panorama.lambda: lambda_b; < 0 = the paper's default, scaled (above)
   int lambda_reference_height = 1024;  // panorama.lambda_reference_height: H at which the defaults hold
   // panorama.lambda_reference_count: measurements per pixel at which the defaults hold (the paper's
   // every-frame scan: 58.6 deg field of view / 0.375 deg per frame = 156 frames see a direction).
   double lambda_reference_count = 156.0;
-  double lambda_scale = 1.0;         // panorama.lambda_scale: multiplies the default (sweeps; 1 = the paper's balance)
-  int iterations = 100;              // panorama.iterations: L-BFGS iterations (max)
-  int lbfgs_memory = 5;              // panorama.lbfgs_memory
-  double data_epsilon_m = 0.002;     // panorama.data_epsilon_m: smoothing of |D - z| (first stage)
+  double lambda_scale = 1.0;      // panorama.lambda_scale: multiplies the default (sweeps; 1 = the paper's balance)
+  int iterations = 100;           // panorama.iterations: L-BFGS iterations (max)
+  int lbfgs_memory = 5;           // panorama.lbfgs_memory
+  double data_epsilon_m = 0.002;  // panorama.data_epsilon_m: smoothing of |D - z| (first stage)
   double data_epsilon_final_m = 1e-4;  // panorama.data_epsilon_final_m: last stage (eps / 5 per stage)
-  double tv_epsilon_m = 1e-4;        // smoothing of the TV norm
-  double tsa_epsilon_m2 = 1e-7;      // smoothing of the TSA norm
+  double tv_epsilon_m = 1e-4;          // smoothing of the TV norm
+  double tsa_epsilon_m2 = 1e-7;        // smoothing of the TSA norm
   // panorama.tolerance: a stage stops after 3 steps in a row that lower its objective by less
   // than this (relative); see recon/panorama/README.md, "Speed and memory", for the choice.
   double relative_tolerance = 1e-5;
-  double max_sigma_m = 0.15;         // panorama.max_sigma_m: flag pixels with sigma_z above
+  double max_sigma_m = 0.15;  // panorama.max_sigma_m: flag pixels with sigma_z above
   // panorama.max_coupled_depth_jump_m: adjacent pixels whose median depths differ by more are not
   // coupled by the smoothness term (lambda_a, as in the warping; 0 = couple every neighbour).
   double max_coupled_depth_jump_m = 0.15;
@@ -128,10 +128,10 @@ struct FusionOptions {
 
 struct EnergyRecord {
   int iteration = 0;
-  double smoothed = 0.0;  // the objective the solver minimises (never increases within a stage)
+  double smoothed = 0.0;        // the objective the solver minimises (never increases within a stage)
   double data_epsilon_m = 0.0;  // the stage's data-term smoothing (smoothed jumps up when it shrinks)
-  double data = 0.0;      // exact data term sum |D - z|
-  double smoothness = 0.0;  // exact smoothness term (without lambda)
+  double data = 0.0;            // exact data term sum |D - z|
+  double smoothness = 0.0;      // exact smoothness term (without lambda)
   double total() const { return data + smoothness_weighted; }
   double smoothness_weighted = 0.0;  // lambda * smoothness
 };
@@ -146,7 +146,7 @@ struct Panorama {
   ImageU8 flagged;    // 1 where sigma_z > max_sigma_m
   std::string method;
   double lambda = 0.0;
-  double mean_count = 0.0;  // measurements per measured pixel (scales the default lambda)
+  double mean_count = 0.0;           // measurements per measured pixel (scales the default lambda)
   std::vector<EnergyRecord> energy;  // per iteration (empty for averaging)
   // The panorama's points in the world frame (pixels with depth; flagged ones included unless
   // skip_flagged), with colour and variance.

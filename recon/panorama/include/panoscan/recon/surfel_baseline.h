@@ -25,10 +25,10 @@
 namespace panoscan {
 
 struct SurfelOptions {
-  double max_depth_m = 4.0;        // surfels.max_depth_m: the paper's 3 m / 4 m cut-off
-  double merge_distance_m = 0.05;  // surfels.merge_distance_m
-  double merge_angle_deg = 20.0;   // surfels.merge_angle_deg (ElasticFusion)
-  double min_confidence = 1.0;     // surfels.min_confidence (ElasticFusion's 10 assumes every frame)
+  double max_depth_m = 4.0;          // surfels.max_depth_m: the paper's 3 m / 4 m cut-off
+  double merge_distance_m = 0.05;    // surfels.merge_distance_m
+  double merge_angle_deg = 20.0;     // surfels.merge_angle_deg (ElasticFusion)
+  double min_confidence = 1.0;       // surfels.min_confidence (ElasticFusion's 10 assumes every frame)
   int direction_bins_height = 2048;  // rows of the equirectangular association grid
   int frame_stride = 1;
   void check(const std::string& origin = "<surfel options>") const;
@@ -42,7 +42,8 @@ struct SurfelResult {
   double seconds = 0.0;
 };
 
-SurfelResult build_surfel_baseline(const ScanIndex& scan, const RigTrajectory& trajectory, const SurfelOptions& options);
+SurfelResult build_surfel_baseline(const ScanIndex& scan, const RigTrajectory& trajectory,
+                                   const SurfelOptions& options);
 
 // Ray-cast of the surfels as disks into the panorama centred at world_from_pano (radial depth,
 // 0 = no hit): the "(RC)" row.

@@ -14,18 +14,18 @@
 namespace panoscan {
 
 struct TsdfOptions {
-  double voxel_m = 0.005;       // tsdf.voxel_m
-  double truncation_m = 0.06;   // tsdf.truncation_m
-  double max_depth_m = 4.0;     // tsdf.max_depth_m: depths beyond are not integrated (BundleFusion: 4 m)
-  int frame_stride = 1;         // tsdf.frame_stride: every n-th frame of each camera
+  double voxel_m = 0.005;      // tsdf.voxel_m
+  double truncation_m = 0.06;  // tsdf.truncation_m
+  double max_depth_m = 4.0;    // tsdf.max_depth_m: depths beyond are not integrated (BundleFusion: 4 m)
+  int frame_stride = 1;        // tsdf.frame_stride: every n-th frame of each camera
   void check(const std::string& origin = "<tsdf options>") const;
 };
 
 struct TsdfResult {
-  TriangleMesh mesh;         // marching cubes, world frame
-  PointCloud vertices;       // the mesh's vertices with colour (what Table 3 evaluates)
-  std::size_t volume_units = 0;      // allocated 16^3 blocks
-  std::size_t memory_bytes = 0;      // volume_units * 16^3 * voxel size (estimate of the volume's memory)
+  TriangleMesh mesh;             // marching cubes, world frame
+  PointCloud vertices;           // the mesh's vertices with colour (what Table 3 evaluates)
+  std::size_t volume_units = 0;  // allocated 16^3 blocks
+  std::size_t memory_bytes = 0;  // volume_units * 16^3 * voxel size (estimate of the volume's memory)
   double integrate_seconds = 0.0;
   double extract_seconds = 0.0;
 };

@@ -28,9 +28,9 @@ struct PlacementOptions {
 struct Placement {
   std::vector<Rigid3d> world_from_panorama;          // the final poses
   std::vector<Rigid3d> world_from_panorama_chained;  // after step 1 (before the pose graph)
-  std::vector<char> edge_kept;                        // per input edge: used (1) or dropped (0)
-  std::vector<char> edge_in_chain;                    // per input edge: placed a panorama in step 1
-  std::vector<std::string> dropped;                   // "B -> A: contradicts the chained registrations by ..."
+  std::vector<char> edge_kept;                       // per input edge: used (1) or dropped (0)
+  std::vector<char> edge_in_chain;                   // per input edge: placed a panorama in step 1
+  std::vector<std::string> dropped;                  // "B -> A: contradicts the chained registrations by ..."
   bool pose_graph_used = false;
   // The worst pairwise inconsistency (pose_graph.h) over the kept registrations, chained and final.
   EdgeDiscrepancy inconsistency_chained, inconsistency_final;

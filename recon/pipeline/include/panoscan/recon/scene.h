@@ -18,9 +18,9 @@
 namespace panoscan {
 
 struct SceneScan {
-  std::string name;                          // e.g. "SO-1"
+  std::string name;  // e.g. "SO-1"
   ScanIndex scan;
-  std::optional<RigTrajectory> trajectory;   // given poses (e.g. ground truth); tracked if empty
+  std::optional<RigTrajectory> trajectory;  // given poses (e.g. ground truth); tracked if empty
 };
 
 struct SceneOptions {

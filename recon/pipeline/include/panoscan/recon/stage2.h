@@ -28,9 +28,9 @@ const char* to_string(DepthCovarianceModel model);  // measured, handa-model, co
 
 struct PanoramaCloudOptions {
   DepthCovarianceModel covariance = DepthCovarianceModel::kMeasured;
-  double max_sigma_m = 0.15;   // drop pixels whose measured sigma_z exceeds this (§6.3)
-  int min_observations = 2;    // a variance needs at least two measurements
-  int pixel_stride = 1;        // use every n-th row and column (speed; 1 = all pixels)
+  double max_sigma_m = 0.15;  // drop pixels whose measured sigma_z exceeds this (§6.3)
+  int min_observations = 2;   // a variance needs at least two measurements
+  int pixel_stride = 1;       // use every n-th row and column (speed; 1 = all pixels)
   // kConstant: every pixel's sigma_z; 0 = the median measured sigma_z of the usable pixels (the same
   // overall scale as the measured variance, no per-pixel information).
   double constant_sigma_m = 0.0;
@@ -90,8 +90,8 @@ PanoramaPoints panorama_integration_points(const Panorama& panorama, const Rigid
                                            const PanoramaCloudOptions& options);
 
 // Keys registration.{method (gicp-ours), max_correspondence_m (0.15), max_iterations (50),
-// min_fitness (0.5; PairRegistrationOptions::min_fitness), covariance (measured | handa-model | constant; handa-model for gicp-def),
-// constant_sigma_m (0 = median measured), pixel_stride (1), min_observations (2), max_sigma_m (0.15)},
+// min_fitness (0.5; PairRegistrationOptions::min_fitness), covariance (measured | handa-model | constant; handa-model
+// for gicp-def), constant_sigma_m (0 = median measured), pixel_stride (1), min_observations (2), max_sigma_m (0.15)},
 // seed (RANSAC), threads.
 PairRegistrationOptions pair_registration_options_from_config(Config& config);
 // Keys integration.{method (map | average | align), weighting (information | paper-inverse-sqrt)}, threads.

@@ -24,8 +24,8 @@ struct FeatureAlignmentOptions {
   double ratio_test = 0.8;           // Lowe's ratio on Hamming distances
   double inlier_threshold_m = 0.05;  // RANSAC: 3D distance after the transform
   int ransac_iterations = 4000;
-  int min_inliers = 25;              // below this the alignment is reported as failed
-  std::uint64_t seed = 1;            // RANSAC sampling (deterministic)
+  int min_inliers = 25;    // below this the alignment is reported as failed
+  std::uint64_t seed = 1;  // RANSAC sampling (deterministic)
 
   void check() const;
 };
@@ -35,7 +35,7 @@ struct FeatureAlignment {
   std::string failure;  // why not, when !success
   Rigid3d target_from_source = Rigid3d::Identity();
   int source_features = 0, target_features = 0;
-  int matches = 0;   // after ratio and cross check, with valid depth on both sides
+  int matches = 0;  // after ratio and cross check, with valid depth on both sides
   int inliers = 0;
   double inlier_rmse_m = 0.0;
   // The matched 3D points (panorama frames) after the ratio and cross checks, for verifying a

@@ -77,15 +77,15 @@ struct IcpOptions {
   int max_iterations = 50;             // paper §6.3
   double convergence_translation_m = 1e-6;
   double convergence_rotation_rad = 1e-7;
-  int anisotropic_candidates = 8;      // Euclidean candidates for the Mahalanobis choice
-  double curvature_scale = 0.05;       // "Curv": w = conf / (1 + (curvature / scale)^2)
+  int anisotropic_candidates = 8;  // Euclidean candidates for the Mahalanobis choice
+  double curvature_scale = 0.05;   // "Curv": w = conf / (1 + (curvature / scale)^2)
   // Fitness: the fraction of source points whose correspondence lies within fitness_distance_m
   // at the end. A wrong local minimum in a room still finds walls within lambda_a for most
   // points, but few within a few centimetres. Below min_fitness the registration is reported as
   // failed (an Error), not returned as if it were fine; 0 disables the check.
   double fitness_distance_m = 0.03;
   double min_fitness = 0.0;
-  int threads = 0;                     // 0 = all cores
+  int threads = 0;  // 0 = all cores
 
   void check() const;
 };
@@ -94,11 +94,11 @@ struct IcpResult {
   Rigid3d target_from_source = Rigid3d::Identity();
   int iterations = 0;
   bool converged = false;
-  std::size_t correspondences = 0;  // at the last iteration
-  double inlier_fraction = 0.0;     // correspondences / source points
-  double fitness = 0.0;             // source points within fitness_distance_m / source points
-  double rmse_m = 0.0;              // Euclidean RMSE of the correspondences at the end
-  std::vector<double> cost_history; // the objective per iteration (its own metric)
+  std::size_t correspondences = 0;   // at the last iteration
+  double inlier_fraction = 0.0;      // correspondences / source points
+  double fitness = 0.0;              // source points within fitness_distance_m / source points
+  double rmse_m = 0.0;               // Euclidean RMSE of the correspondences at the end
+  std::vector<double> cost_history;  // the objective per iteration (its own metric)
 };
 
 // Registers `source` onto `target` from `initial_target_from_source`. Both clouds must have

@@ -57,12 +57,13 @@ enum class TrackingMode {
 // physical bound of the set-up (one revolution in one direction on a rotator whose axis is near
 // the cameras' up), not a figure of a particular scan.
 struct TrackingVerifyOptions {
-  bool enabled = true;                    // track.verify.enabled: false = no checks, always "reliable"
-  int min_frame_observations = 6;         // track.verify.min_frame_observations: a frame with fewer is unsupported
-  double max_unsupported_turn_deg = 45;   // track.verify.max_unsupported_turn_deg: longest turn no camera supports (1/8 rev.)
-  double min_turn_deg = 340;              // track.verify.min_turn_deg: the scan must cover one revolution ...
-  double max_turn_deg = 380;              // track.verify.max_turn_deg: ... and not much more
-  double max_backward_step_deg = 2.0;     // track.verify.max_backward_step_deg: azimuth steps against the turn
+  bool enabled = true;             // track.verify.enabled: false = no checks, always "reliable"
+  int min_frame_observations = 6;  // track.verify.min_frame_observations: a frame with fewer is unsupported
+  double max_unsupported_turn_deg =
+      45;                     // track.verify.max_unsupported_turn_deg: longest turn no camera supports (1/8 rev.)
+  double min_turn_deg = 340;  // track.verify.min_turn_deg: the scan must cover one revolution ...
+  double max_turn_deg = 380;  // track.verify.max_turn_deg: ... and not much more
+  double max_backward_step_deg = 2.0;        // track.verify.max_backward_step_deg: azimuth steps against the turn
   double pair_rotation_tolerance_deg = 2.0;  // track.verify.pair_rotation_tolerance_deg: tracked vs verified pairs
   // track.verify.pair_translation_tolerance_m: lambda_a (a pair's RANSAC translation from few, far
   // features is itself uncertain; see recon/tracking/README.md).
@@ -71,25 +72,25 @@ struct TrackingVerifyOptions {
   // track.verify.min_consistent_loop_share: lower than for same-camera pairs, since a repetitive room
   // gives RANSAC-verified false loop matches, while a wrong trajectory disagrees with nearly all.
   double min_consistent_loop_share = 0.5;
-  double max_outlier_share = 0.2;         // track.verify.max_outlier_share: whitened residual > 3 huber_delta
+  double max_outlier_share = 0.2;          // track.verify.max_outlier_share: whitened residual > 3 huber_delta
   double max_extrinsics_change_deg = 3.0;  // track.verify.max_extrinsics_change_deg: T_c vs the calibration
-  double max_extrinsics_change_m = 0.03;  // track.verify.max_extrinsics_change_m
-  double max_axis_tilt_deg = 30.0;        // track.verify.max_axis_tilt_deg: axis vs the reference camera's up (-y)
+  double max_extrinsics_change_m = 0.03;   // track.verify.max_extrinsics_change_m
+  double max_axis_tilt_deg = 30.0;         // track.verify.max_axis_tilt_deg: axis vs the reference camera's up (-y)
 
   void check(const std::string& origin) const;
 };
 
 struct TrackingOptions {
-  TrackingMode mode = TrackingMode::kFull;      // track.mode: full | ba-only | single-camera | fixed-extrinsics
-  bool pose_regularisation = true;              // track.pose_regularisation: Eq. 2 on/off (ablation)
-  bool velocity_smoothness = true;              // track.velocity_smoothness: Eq. 3 on/off (ablation)
-  double reg_translation_std_m = 0.005;         // track.reg_translation_std_m (paper §6.1)
-  double reg_rotation_std_deg = 0.5;            // track.reg_rotation_std_deg (paper §6.1)
+  TrackingMode mode = TrackingMode::kFull;  // track.mode: full | ba-only | single-camera | fixed-extrinsics
+  bool pose_regularisation = true;          // track.pose_regularisation: Eq. 2 on/off (ablation)
+  bool velocity_smoothness = true;          // track.velocity_smoothness: Eq. 3 on/off (ablation)
+  double reg_translation_std_m = 0.005;     // track.reg_translation_std_m (paper §6.1)
+  double reg_rotation_std_deg = 0.5;        // track.reg_rotation_std_deg (paper §6.1)
   // Eq. 3's confidence as an angular-acceleration std (docs/ARCHITECTURE.md §8.2; paper: variance "1/s^2").
-  double angular_accel_std_deg_s2 = 1.0;        // track.angular_accel_std_deg_s2
+  double angular_accel_std_deg_s2 = 1.0;  // track.angular_accel_std_deg_s2
   // true: the std of v_{i,i+1} - v_{i-1,i} is accel_std * (t_{i+1} - t_{i-1}) / 2 (the velocity change a
   // random acceleration causes over the interval); false: accel_std * 1 s, the paper's constant Omega_vel.
-  bool velocity_std_scales_with_dt = true;      // track.velocity_std_scales_with_dt
+  bool velocity_std_scales_with_dt = true;  // track.velocity_std_scales_with_dt
   // The calibrated extrinsics as a prior on T_c (the calibration's accuracy). Needed: with the narrow
   // overlap band few or no cross-camera landmarks exist, and Eq. 2 leaves each T_c free to rotate about
   // and slide along the axis; the prior holds those two directions at the calibration.
@@ -97,27 +98,27 @@ struct TrackingOptions {
   double extrinsics_prior_rotation_std_deg = 1.0;    // track.extrinsics_prior_rotation_std_deg
   // Holds T_c at the calibration (0.1 mm, 0.01 deg) along its two unobserved directions (rotation
   // about and sliding along the axis), where only weak second-order forces act.
-  bool extrinsics_null_prior = true;            // track.extrinsics_null_prior
+  bool extrinsics_null_prior = true;  // track.extrinsics_null_prior
   // Shared wobble (beyond the paper; SharedWobbleCost in tracking_factors.h): consecutive frames of
   // different cameras dt apart share the rig's wobble up to its change over dt, std = rate * dt (+ a
   // floor for timestamp jitter); linked only while rate * dt is below Eq. 2's std (beyond that the
   // two deviations are as good as independent). The rates are the std of the wobble's rate of
   // change (how the defaults follow from the paper's wobble: recon/tracking/README.md).
-  bool shared_wobble = true;                    // track.shared_wobble
-  double wobble_rate_std_deg_s = 8.0;           // track.wobble_rate_std_deg_s
-  double wobble_rate_std_m_s = 0.08;            // track.wobble_rate_std_m_s
-  double same_time_s = 1e-3;                    // track.same_time_s: frames closer in time share one azimuth
-  double huber_delta = 2.796;                   // track.huber_delta: on the whitened residual (sqrt of chi2(3) 95%)
-  double depth_noise_coefficient = 9.49e-4;     // track.depth_noise_coefficient: sigma_d = c d^2, ARCHITECTURE.md §4.1
-  int max_iterations = 100;                     // track.max_iterations
+  bool shared_wobble = true;                 // track.shared_wobble
+  double wobble_rate_std_deg_s = 8.0;        // track.wobble_rate_std_deg_s
+  double wobble_rate_std_m_s = 0.08;         // track.wobble_rate_std_m_s
+  double same_time_s = 1e-3;                 // track.same_time_s: frames closer in time share one azimuth
+  double huber_delta = 2.796;                // track.huber_delta: on the whitened residual (sqrt of chi2(3) 95%)
+  double depth_noise_coefficient = 9.49e-4;  // track.depth_noise_coefficient: sigma_d = c d^2, ARCHITECTURE.md §4.1
+  int max_iterations = 100;                  // track.max_iterations
   // track.function_tolerance: stop when an iteration lowers the cost by less than this fraction
   // (why 1e-5: recon/tracking/README.md, "Solver tolerance").
   double function_tolerance = 1e-5;
-  bool log_iterations = false;                  // track.log_iterations: one log line per LM iteration (cost, times)
-  std::string linear_solver = "sparse_schur";   // track.linear_solver: sparse_schur | sparse_normal_cholesky
-  int threads = 0;                              // threads (0 = all cores)
-  FrontendOptions frontend;                     // frontend.* keys
-  TrackingVerifyOptions verify;                 // track.verify.* keys
+  bool log_iterations = false;                 // track.log_iterations: one log line per LM iteration (cost, times)
+  std::string linear_solver = "sparse_schur";  // track.linear_solver: sparse_schur | sparse_normal_cholesky
+  int threads = 0;                             // threads (0 = all cores)
+  FrontendOptions frontend;                    // frontend.* keys
+  TrackingVerifyOptions verify;                // track.verify.* keys
   // track.allow_unreliable: require_reliable_tracking warns instead of refusing (for inspection).
   bool allow_unreliable = false;
 
@@ -135,8 +136,8 @@ struct TrackingStats {
   // regularisation (Eq. 2), velocity (Eq. 3), the priors on T_u and T_c, the shared wobble.
   std::array<double, 5> initial_term_costs{}, final_term_costs{};
   int shared_wobble_links = 0;
-  bool converged = false;               // Ceres reported CONVERGENCE and every pose is finite
-  std::string termination;              // Ceres' message
+  bool converged = false;   // Ceres reported CONVERGENCE and every pose is finite
+  std::string termination;  // Ceres' message
   std::string linear_solver;
   int threads = 1;
   double frontend_seconds = 0, feature_ms_per_frame = 0, matching_ms_per_frame = 0;
@@ -147,7 +148,7 @@ struct TrackingStats {
 
 // One check of verify_tracking: its figure against its limit.
 struct TrackingCheck {
-  std::string name;    // frames, turn, monotone, pairs, loop, residuals, extrinsics, axis, finite
+  std::string name;  // frames, turn, monotone, pairs, loop, residuals, extrinsics, axis, finite
   bool passed = true;
   double value = 0.0, limit = 0.0;
   std::string detail;  // one line: what was measured and why it matters
@@ -170,8 +171,8 @@ struct TrackingVerdict {
 };
 
 struct TrackingResult {
-  RigTrajectory trajectory;                       // every frame of the scan, source "tracked:<mode>"
-  std::vector<std::vector<double>> azimuth_rad;   // per sensor, per frame, in [0, 2 pi)
+  RigTrajectory trajectory;                                // every frame of the scan, source "tracked:<mode>"
+  std::vector<std::vector<double>> azimuth_rad;            // per sensor, per frame, in [0, 2 pi)
   std::vector<std::vector<double>> azimuth_unwrapped_rad;  // the same, unwrapped (continuous)
   TrackingStats stats;
   TrackingVerdict verdict;
@@ -210,8 +211,8 @@ TrackingResult track_scan(const ScanIndex& scan, const TrackingOptions& options)
 // initial_guess (optional): start from these poses, axis and extrinsics instead of the
 // initialisation above (any world frame; experiments start from the ground truth to separate the
 // optimum of the graph from the convergence to it).
-TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& frontend, const TrackingOptions& options,
-                                   const RigTrajectory* initial_guess = nullptr);
+TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& frontend,
+                                   const TrackingOptions& options, const RigTrajectory* initial_guess = nullptr);
 
 TrackingOptions tracking_options_from_config(Config& config);
 const char* to_string(TrackingMode mode);
