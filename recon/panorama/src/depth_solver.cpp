@@ -76,7 +76,10 @@ struct DepthProblem {
     Stencil stencil;
     for (int k = 0; k < kSlots; ++k) {
       stencil.present[k] = index[k] >= 0;
-      if (!stencil.present[k]) continue;
+      if (!stencil.present[k]) {
+        stencil.ray[k].setZero();  // never read for an absent slot; set so that no value is indeterminate
+        continue;
+      }
       const std::size_t j = std::size_t(index[k]);
       stencil.depth[k] = x[j];
       stencil.ray[k] = ray[j];
@@ -413,7 +416,7 @@ Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
   }
   if (options.method != DepthFusionMethod::kAverage && n > 0) {
     // Continuation in the data term's smoothing: a wide eps first (well conditioned: moves the
-    // pixels that need to move), then eps / 4 per stage down to data_epsilon_final_m, so that the
+    // pixels that need to move), then eps / 5 per stage down to data_epsilon_final_m, so that the
     // final solve is close to the exact L1 of Eq. 5 (whose energy is the one reported). Each
     // stage gets an equal share of the iteration budget and stops early when converged.
     std::vector<double> stages;
