@@ -216,13 +216,7 @@ Scene make_office(const SceneStyle& style) {
   int workstation = 0;
   auto add_workstation = [&](const Wall& wall, float s) {
     push_against_wall(b, wall, s, 0.7f);
-    add_table(b, m, 1.4f, 0.7f, 0.74f, m(MK::kDeskLaminate), m(MK::kDarkMetal), false);
-    b.push(place(Vec3(0.f, 0.12f, 0.74f)));
-    add_monitor(b, m, workstation % 2);
-    b.pop();
-    b.push(place(Vec3(-0.05f, -0.16f, 0.74f)));
-    add_keyboard_and_mouse(b, m);
-    b.pop();
+    add_desk_with_screen(b, m, workstation % 2);
     switch (workstation) {
       case 0:
         b.push(place(Vec3(0.5f, 0.1f, 0.74f)));

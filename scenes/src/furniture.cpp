@@ -432,6 +432,16 @@ void add_monitor(SceneBuilder& b, MaterialLibrary& m, int screen_variant) {
                     Vec3(-0.265f, -0.001f, 0.455f), m(MK::kScreen, screen_variant));
 }
 
+void add_desk_with_screen(SceneBuilder& b, MaterialLibrary& m, int screen_variant) {
+  add_table(b, m, 1.4f, 0.7f, 0.74f, m(MK::kDeskLaminate), m(MK::kDarkMetal), false);
+  b.push(place(Vec3(0.f, 0.12f, 0.74f)));
+  add_monitor(b, m, screen_variant);
+  b.pop();
+  b.push(place(Vec3(-0.05f, -0.16f, 0.74f)));
+  add_keyboard_and_mouse(b, m);
+  b.pop();
+}
+
 void add_keyboard_and_mouse(SceneBuilder& b, MaterialLibrary& m) {
   const int plastic = m(MK::kDarkPlastic);
   b.add_box(Vec3(-0.22f, -0.07f, 0.f), Vec3(0.22f, 0.07f, 0.022f), plastic, kAllFaces & ~kFaceMaxZ);

@@ -54,6 +54,10 @@ void add_table_lamp(SceneBuilder& b, MaterialLibrary& m);
 void add_plant(SceneBuilder& b, MaterialLibrary& m, RandomStream& rng, float size, float max_reach);
 void add_monitor(SceneBuilder& b, MaterialLibrary& m, int screen_variant);
 void add_keyboard_and_mouse(SceneBuilder& b, MaterialLibrary& m);
+// A desk (1.4 x 0.7 m, 0.74 m high, laminate on dark metal) with a monitor (`screen_variant`)
+// and a keyboard and mouse: the workstation of the built-in office and of generated offices.
+// Origin at the centre of the desk's footprint; what else stands on it is the caller's.
+void add_desk_with_screen(SceneBuilder& b, MaterialLibrary& m, int screen_variant);
 void add_tv_unit(SceneBuilder& b, MaterialLibrary& m);
 void add_rug(SceneBuilder& b, MaterialLibrary& m, float width, float depth);
 void add_radiator(SceneBuilder& b, MaterialLibrary& m, float width);

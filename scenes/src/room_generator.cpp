@@ -110,13 +110,7 @@ std::vector<Piece> office_pieces(RandomStream& rng, float height) {
   for (int k = 0; k < desks; ++k)
     pieces.push_back({"workstation", 1.4f, 1.4f, [k](SceneBuilder& b, MaterialLibrary& m, RandomStream& r) {
                         b.push(place(Vec3(0.f, 0.35f, 0.f)));
-                        add_table(b, m, 1.4f, 0.7f, 0.74f, m(MK::kDeskLaminate), m(MK::kDarkMetal), false);
-                        b.push(place(Vec3(0.f, 0.12f, 0.74f)));
-                        add_monitor(b, m, k % 2);
-                        b.pop();
-                        b.push(place(Vec3(-0.05f, -0.16f, 0.74f)));
-                        add_keyboard_and_mouse(b, m);
-                        b.pop();
+                        add_desk_with_screen(b, m, k % 2);
                         if (k % 2 == 0) {
                           b.push(place(Vec3(0.5f, 0.1f, 0.74f)));
                           add_table_lamp(b, m);
