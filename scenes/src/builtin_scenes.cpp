@@ -144,13 +144,7 @@ Scene make_living_room(const SceneStyle& style) {
   add_picture(b, m(MK::kPoster, 3), m(MK::kOakWood), 1.95f, 1.6f, 0.45f, 0.6f);
   b.pop();
   push_against_wall(b, walls.north, 1.95f, 0.45f);
-  add_chest_of_drawers(b, m, 0.8f, 0.45f, 0.85f, 4, m(MK::kOakWood));
-  b.push(place(Vec3(-0.2f, 0.f, 0.87f), 0.2f));
-  add_book_stack(b, m, rng, 4);
-  b.pop();
-  b.push(place(Vec3(0.25f, 0.05f, 0.87f)));
-  add_vase(b, m(MK::kTerracotta), 0.22f, 0.06f);
-  b.pop();
+  add_dresser(b, m, rng, 4);
   b.pop();
   push_against_wall(b, walls.north, 3.4f, 0.44f);
   add_tv_unit(b, m);

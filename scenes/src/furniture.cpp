@@ -432,6 +432,16 @@ void add_monitor(SceneBuilder& b, MaterialLibrary& m, int screen_variant) {
                     Vec3(-0.265f, -0.001f, 0.455f), m(MK::kScreen, screen_variant));
 }
 
+void add_dresser(SceneBuilder& b, MaterialLibrary& m, RandomStream& rng, int books) {
+  add_chest_of_drawers(b, m, 0.8f, 0.45f, 0.85f, 4, m(MK::kOakWood));
+  b.push(place(Vec3(-0.2f, 0.f, 0.87f), 0.2f));
+  add_book_stack(b, m, rng, books);
+  b.pop();
+  b.push(place(Vec3(0.25f, 0.05f, 0.87f)));
+  add_vase(b, m(MK::kTerracotta), 0.22f, 0.06f);
+  b.pop();
+}
+
 void add_desk_with_screen(SceneBuilder& b, MaterialLibrary& m, int screen_variant) {
   add_table(b, m, 1.4f, 0.7f, 0.74f, m(MK::kDeskLaminate), m(MK::kDarkMetal), false);
   b.push(place(Vec3(0.f, 0.12f, 0.74f)));

@@ -58,6 +58,9 @@ void add_keyboard_and_mouse(SceneBuilder& b, MaterialLibrary& m);
 // and a keyboard and mouse: the workstation of the built-in office and of generated offices.
 // Origin at the centre of the desk's footprint; what else stands on it is the caller's.
 void add_desk_with_screen(SceneBuilder& b, MaterialLibrary& m, int screen_variant);
+// An oak chest of four drawers (0.8 x 0.45 x 0.85 m) with `books` books and a terracotta vase on
+// top: the living room's dresser, built-in and generated.
+void add_dresser(SceneBuilder& b, MaterialLibrary& m, RandomStream& rng, int books);
 void add_tv_unit(SceneBuilder& b, MaterialLibrary& m);
 void add_rug(SceneBuilder& b, MaterialLibrary& m, float width, float depth);
 void add_radiator(SceneBuilder& b, MaterialLibrary& m, float width);

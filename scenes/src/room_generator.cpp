@@ -174,13 +174,7 @@ std::vector<Piece> living_room_pieces(RandomStream& rng, float height) {
                       add_bookshelf(b, m, r, 1.2f, shelf_height, 5, m(MK::kWalnutWood));
                     }});
   pieces.push_back({"chest_of_drawers", 0.8f, 0.45f, [](SceneBuilder& b, MaterialLibrary& m, RandomStream& r) {
-                      add_chest_of_drawers(b, m, 0.8f, 0.45f, 0.85f, 4, m(MK::kOakWood));
-                      b.push(place(Vec3(-0.2f, 0.f, 0.87f), 0.2f));
-                      add_book_stack(b, m, r, 3);
-                      b.pop();
-                      b.push(place(Vec3(0.25f, 0.05f, 0.87f)));
-                      add_vase(b, m(MK::kTerracotta), 0.22f, 0.06f);
-                      b.pop();
+                      add_dresser(b, m, r, 3);
                     }});
   pieces.push_back({"armchair", 0.9f, 0.9f, [](SceneBuilder& b, MaterialLibrary& m, RandomStream&) {
                       add_armchair(b, m, m(MK::kUpholsteryOchre));
