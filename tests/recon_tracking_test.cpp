@@ -313,7 +313,8 @@ TEST_F(TrackingTest, SelfCheckPassesACorrectTrajectoryAndCatchesCorruptedOnes) {
     ASSERT_EQ(good.verdict.frames[s].size(), scan_->frames[s].size());
   const nlohmann::json stats = nlohmann::json::parse(tracking_stats_json(good, scan_->rig));
   EXPECT_TRUE(stats.at("verdict").at("reliable").get<bool>());
-  EXPECT_EQ(stats.at("frames").at(scan_->rig.sensors[0].name).at("confidence").size(), scan_->frames[0].size());
+  EXPECT_EQ(stats.at("frame_support").at(scan_->rig.sensors[0].name).at("confidence").size(), scan_->frames[0].size());
+  EXPECT_EQ(stats.at("frames").get<int>(), good.stats.frames);  // the count, not overwritten by the support
 
   // The observation counts and residuals the graph had (for re-verifying edited results).
   std::vector<std::vector<int>> observations(scan_->frames.size());

@@ -231,7 +231,9 @@ TrackingResult track_scan(const ScanIndex& scan, const TrackingOptions& options)
   return track_with_frontend(scan, frontend, options);
 }
 
-std::string tracking_stats_json(const TrackingStats& s) {
+namespace {
+
+nlohmann::json stats_to_json(const TrackingStats& s) {
   nlohmann::json j = {
       {"format", "panoscan-tracking-stats"},
       {"version", 1},
@@ -263,11 +265,15 @@ std::string tracking_stats_json(const TrackingStats& s) {
         {"linear_solver", s.linear_solver_seconds},
         {"jacobians", s.jacobian_seconds}}},
       {"frontend_ms_per_frame", {{"features", s.feature_ms_per_frame}, {"matching", s.matching_ms_per_frame}}}};
-  return j.dump(2) + "\n";
+  return j;
 }
 
+}  // namespace
+
+std::string tracking_stats_json(const TrackingStats& stats) { return stats_to_json(stats).dump(2) + "\n"; }
+
 std::string tracking_stats_json(const TrackingResult& result, const RigInfo& rig) {
-  nlohmann::json j = nlohmann::json::parse(tracking_stats_json(result.stats));
+  nlohmann::json j = stats_to_json(result.stats);
   const TrackingVerdict& v = result.verdict;
   nlohmann::json checks = nlohmann::json::array();
   for (const TrackingCheck& c : v.checks)
@@ -289,7 +295,7 @@ std::string tracking_stats_json(const TrackingResult& result, const RigInfo& rig
     frames[rig.sensors[s].name] = {
         {"observations", std::move(observations)}, {"gap_deg", std::move(gap)}, {"confidence", std::move(confidence)}};
   }
-  j["frames"] = std::move(frames);
+  j["frame_support"] = std::move(frames);
   return j.dump(2) + "\n";
 }
 

@@ -223,7 +223,7 @@ TrackingMode tracking_mode_from_string(const std::string& text, const std::strin
 // source marked ":unreliable".
 void write_tracking_result(const std::filesystem::path& dir, const TrackingResult& result, const RigInfo& rig);
 std::string tracking_stats_json(const TrackingStats& stats);
-// The stats plus "verdict" (every check) and "frames" (per camera: observations, gap_deg, confidence).
+// The stats plus "verdict" (every check) and "frame_support" (per camera: observations, gap_deg, confidence).
 std::string tracking_stats_json(const TrackingResult& result, const RigInfo& rig);
 
 }  // namespace panoscan
