@@ -10,6 +10,7 @@
 #include <map>
 #include <numeric>
 
+#include <fmt/format.h>
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -38,6 +39,10 @@ void FrontendOptions::check(const std::string& origin) const {
   require(min_depth_m > 0.0 && max_depth_m > min_depth_m, "min_depth_m", "need 0 < min_depth_m < max_depth_m");
   require(depth_noise_coefficient > 0.0, "depth_noise_coefficient", "must be > 0");
   require(threads >= 0, "threads", "must be >= 0");
+  require(loop_max_deviation_deg >= 0.0 && loop_max_deviation_deg <= 180.0, "loop_max_deviation_deg",
+          "must be in [0, 180] (0 = no check)");
+  require(loop_max_deviation_m >= 0.0, "loop_max_deviation_m", "must be >= 0 (0 = no check)");
+  require(max_pair_translation_m > 0.0, "max_pair_translation_m", "must be > 0");
 }
 
 namespace {
@@ -238,6 +243,98 @@ PairOutcome match_pair(const PairTask& task, const std::vector<std::vector<Frame
   return out;
 }
 
+// Step 3b: pairs the geometry of an in-place rotator rules out, un-accepted (frontend.h, "A room
+// with repeated objects"):
+//  - every same-camera or loop pair that moves the camera farther than max_pair_translation_m;
+//  - a loop pair whose rotation disagrees with the chain of the camera's accepted same-camera
+//    transforms (frame f from the nearest earlier frame with a pose and a pair to f; a frame with
+//    none starts a new chain) by more than loop_max_deviation_deg;
+//  - a loop pair whose translation is not the rotator's: a camera turning about a fixed line moves
+//    as x_a = R (x_b - p) + p, so a_from_b's translation is (I - R) p, with p a point of the axis in
+//    the camera's frame, the same for all its frames; p is the least-squares fit to the camera's
+//    same-camera pairs, and the loop pair may miss (I - R) p by loop_max_deviation_m: RANSAC's
+//    translation carries its rotation error times the distance to the points (0.5 deg at 3 m is
+//    26 mm; valid loop pairs miss by up to 48 mm on generated office 3), an object matched onto its
+//    twin by its distance to it.
+// Pairs stay in task order, so the result is independent of the thread count.
+void reject_implausible_pairs(const std::vector<PairTask>& tasks, std::vector<PairOutcome>& outcomes,
+                              const ScanIndex& scan, const FrontendOptions& options, FrontendResult& result) {
+  const int sensor_count = int(scan.rig.sensors.size());
+  std::map<std::array<int, 3>, int> same_camera;  // (sensor, frame a, frame b) -> task
+  std::vector<Eigen::Matrix3d> normal(sensor_count, Eigen::Matrix3d::Zero());
+  std::vector<Eigen::Vector3d> rhs(sensor_count, Eigen::Vector3d::Zero());
+  for (std::size_t k = 0; k < tasks.size(); ++k) {
+    PairOutcome& out = outcomes[k];
+    if (!out.accepted || tasks[k].kind == FramePairMatch::Kind::kCrossCamera) continue;
+    if (out.match.a_from_b.translation().norm() > options.max_pair_translation_m) {
+      out.accepted = false;
+      ++result.rejected_far_pairs;
+      continue;
+    }
+    if (tasks[k].kind != FramePairMatch::Kind::kSameCamera) continue;
+    const int s = tasks[k].sensor_a;
+    same_camera[{s, tasks[k].frame_a, tasks[k].frame_b}] = int(k);
+    const Eigen::Matrix3d a = Eigen::Matrix3d::Identity() - out.match.a_from_b.linear();
+    normal[s] += a.transpose() * a;
+    rhs[s] += a.transpose() * out.match.a_from_b.translation();
+  }
+  // The axis point of each camera; its component along the axis is free ((I - R) removes it):
+  // the minimum-norm solution.
+  std::vector<Eigen::Vector3d> axis_point(sensor_count, Eigen::Vector3d::Zero());
+  std::vector<char> has_axis_point(sensor_count, 0);
+  for (int s = 0; s < sensor_count; ++s) {
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(normal[s], Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const Eigen::Vector3d sv = svd.singularValues();
+    if (!(sv(1) > 1e-6)) continue;  // fewer than two independent turns
+    Eigen::Vector3d inverse_sv = Eigen::Vector3d::Zero();
+    for (int i = 0; i < 3; ++i) inverse_sv(i) = sv(i) > 1e-3 * sv(0) ? 1.0 / sv(i) : 0.0;
+    axis_point[s] = svd.matrixV() * inverse_sv.asDiagonal() * svd.matrixU().transpose() * rhs[s];
+    has_axis_point[s] = 1;
+  }
+  std::vector<std::vector<Rigid3d>> chain_from_frame(sensor_count);
+  std::vector<std::vector<int>> chain_of_frame(sensor_count);
+  int chains = 0;
+  for (int s = 0; s < sensor_count; ++s) {
+    const int n = int(scan.frames[s].size());
+    chain_from_frame[s].assign(n, Rigid3d::Identity());
+    chain_of_frame[s].assign(n, -1);
+    for (int f = 0; f < n; ++f) {
+      for (int w = 1; w <= options.same_camera_window && f - w >= 0; ++w) {
+        const auto it = same_camera.find({s, f - w, f});
+        if (it == same_camera.end() || chain_of_frame[s][f - w] < 0) continue;
+        chain_from_frame[s][f] = chain_from_frame[s][f - w] * outcomes[it->second].match.a_from_b;
+        chain_of_frame[s][f] = chain_of_frame[s][f - w];
+        break;
+      }
+      if (chain_of_frame[s][f] < 0) chain_of_frame[s][f] = chains++;
+    }
+  }
+  for (std::size_t k = 0; k < tasks.size(); ++k) {
+    PairOutcome& out = outcomes[k];
+    const PairTask& task = tasks[k];
+    if (!out.accepted || task.kind != FramePairMatch::Kind::kLoop) continue;
+    const int s = task.sensor_a;
+    const Rigid3d& a_from_b = out.match.a_from_b;
+    double angle_deg = 0.0, miss_m = 0.0;
+    if (chain_of_frame[s][task.frame_a] == chain_of_frame[s][task.frame_b]) {
+      const Rigid3d chained = chain_from_frame[s][task.frame_a].inverse() * chain_from_frame[s][task.frame_b];
+      angle_deg = rad2deg(rotation_angle(chained.linear().transpose() * a_from_b.linear()));
+    }
+    if (has_axis_point[s])
+      miss_m = (a_from_b.translation() - (Eigen::Matrix3d::Identity() - a_from_b.linear()) * axis_point[s]).norm();
+    const bool agrees = (options.loop_max_deviation_deg <= 0.0 || angle_deg <= options.loop_max_deviation_deg) &&
+                        (options.loop_max_deviation_m <= 0.0 || miss_m <= options.loop_max_deviation_m);
+    log_debug(fmt::format("{}: loop pair cam{} {}-{}: rotation {:.2f} deg from the chained transforms, translation "
+                          "{:.1f} mm from the rotator's{}",
+                          scan.root.string(), s, task.frame_a, task.frame_b, angle_deg, 1e3 * miss_m,
+                          agrees ? "" : ": rejected"));
+    if (!agrees) {
+      out.accepted = false;
+      ++result.rejected_loop_pairs;
+    }
+  }
+}
+
 // Step 4: the accepted pairs in task order, and the landmarks as union-find tracks over the
 // matched keypoints of all frames (at most one observation per frame).
 void build_landmarks(const std::vector<PairOutcome>& outcomes, FrontendResult& result) {
@@ -326,6 +423,7 @@ FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& option
   std::vector<PairOutcome> outcomes(tasks.size());
   tbb::parallel_for(std::size_t(0), tasks.size(),
                     [&](std::size_t k) { outcomes[k] = match_pair(tasks[k], result.features, scan, options); });
+  reject_implausible_pairs(tasks, outcomes, scan, options, result);
   build_landmarks(outcomes, result);
   const auto done = std::chrono::steady_clock::now();
   const double frames = std::max<std::size_t>(1, frame_list.size());

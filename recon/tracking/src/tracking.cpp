@@ -115,6 +115,11 @@ TrackingOptions tracking_options_from_config(Config& config) {
   f.cross_camera = config.get_bool("frontend.cross_camera", f.cross_camera);
   f.loop_closure = config.get_bool("frontend.loop_closure", f.loop_closure);
   f.loop_frames = config.get_int("frontend.loop_frames", f.loop_frames, 0, 100);
+  f.loop_max_deviation_deg =
+      config.get_double("frontend.loop_max_deviation_deg", f.loop_max_deviation_deg, 0.0, 180.0);
+  f.loop_max_deviation_m = config.get_double("frontend.loop_max_deviation_m", f.loop_max_deviation_m, 0.0, 100.0);
+  f.max_pair_translation_m =
+      config.get_double("frontend.max_pair_translation_m", f.max_pair_translation_m, 1e-3, 100.0);
   f.ransac_iterations = config.get_int("frontend.ransac_iterations", f.ransac_iterations, 1, 100000);
   f.min_inliers = config.get_int("frontend.min_inliers", f.min_inliers, 3, 10000);
   f.min_cross_inliers = config.get_int("frontend.min_cross_inliers", f.min_cross_inliers, 3, 10000);
@@ -195,6 +200,8 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   stats.same_camera_pairs = frontend.same_camera_pairs;
   stats.cross_camera_pairs = frontend.cross_camera_pairs;
   stats.loop_pairs = frontend.loop_pairs;
+  stats.rejected_loop_pairs = frontend.rejected_loop_pairs;
+  stats.rejected_far_pairs = frontend.rejected_far_pairs;
   stats.frames_without_features = frontend.frames_without_features;
   stats.init_seconds = seconds_between(start, init_done);
   stats.solve_seconds = seconds_between(init_done, solve_done);
@@ -227,7 +234,9 @@ TrackingResult track_scan(const ScanIndex& scan, const TrackingOptions& options)
   const FrontendResult frontend = run_frontend(scan, frontend_options);
   log_info("front end: " + std::to_string(frontend.landmarks.size()) + " landmarks, " +
            std::to_string(frontend.same_camera_pairs) + " same-camera, " + std::to_string(frontend.cross_camera_pairs) +
-           " cross-camera, " + std::to_string(frontend.loop_pairs) + " loop pairs");
+           " cross-camera, " + std::to_string(frontend.loop_pairs) + " loop pairs (" +
+           std::to_string(frontend.rejected_loop_pairs) + " loop and " + std::to_string(frontend.rejected_far_pairs) +
+           " far pairs rejected)");
   return track_with_frontend(scan, frontend, options);
 }
 
@@ -243,7 +252,9 @@ nlohmann::json stats_to_json(const TrackingStats& s) {
       {"observations", s.observations},
       {"frames_without_observations", s.frames_without_observations},
       {"frames_without_features", s.frames_without_features},
-      {"pairs", {{"same_camera", s.same_camera_pairs}, {"cross_camera", s.cross_camera_pairs}, {"loop", s.loop_pairs}}},
+      {"pairs", {{"same_camera", s.same_camera_pairs}, {"cross_camera", s.cross_camera_pairs}, {"loop", s.loop_pairs},
+                 {"rejected_loop", s.rejected_loop_pairs},
+                 {"rejected_far", s.rejected_far_pairs}}},
       {"residual_blocks", s.residual_blocks},
       {"parameters", s.parameters},
       {"iterations", s.iterations},

@@ -7,6 +7,13 @@
 // Loop closure: instead of randomised ferns (Glocker et al. 2015) the last `loop_frames` frames
 // of each camera are matched against its first `loop_frames` frames (ORB + the same RANSAC). A
 // panoramic scan ends where it started, so this is the place recognition the method needs.
+// A room with repeated objects (two identical desks side by side) gives loop pairs that RANSAC
+// verifies but that map one object onto its twin, metres away; a few of them bend the whole
+// trajectory (generated office seed 3: the middle camera's circle shrank from 105 to 82 mm, ATE
+// 26 mm). So each loop pair must also fit the motion of an in-place rotator: its rotation agrees
+// with the camera's chained frame-to-frame rotations, and its translation with the one the rotation
+// implies about the camera's axis (loop_max_deviation_*, max_pair_translation_m; frontend.cpp,
+// reject_implausible_pairs; recon/tracking/README.md, "False loop closures").
 //
 // Determinism: RANSAC draws come from RandomStream keyed by (seed, camera, frame, pair), and all
 // parallel work writes to per-frame / per-pair slots merged in a fixed order, so the result does
@@ -36,6 +43,15 @@ struct FrontendOptions {
   int cross_overlap_margin_px = 8;  // a keypoint is in the overlap band if it projects this far inside the other image
   bool loop_closure = true;
   int loop_frames = 4;  // last k frames vs first k frames of each camera
+  // A loop pair is kept only if its rotation is within loop_max_deviation_deg of the chained
+  // same-camera rotations (their drift over one revolution: 2-4 deg measured) and its translation
+  // within loop_max_deviation_m of (I - R) p, the rotator's motion about the camera's fitted axis
+  // point p (0 = that check off; no chain joining the two frames = no rotation check).
+  double loop_max_deviation_deg = 10.0;  // frontend.loop_max_deviation_deg
+  double loop_max_deviation_m = 0.15;    // frontend.loop_max_deviation_m
+  // Two poses of one camera on an in-place rotator are at most twice its distance from the axis
+  // apart; pairs (same camera or loop) whose RANSAC transform moves the camera farther are false.
+  double max_pair_translation_m = 0.5;  // frontend.max_pair_translation_m
   int ransac_iterations = 200;
   double ransac_sigmas = 3.0;  // inlier threshold: this many std of the 3D point difference
   double ransac_min_threshold_m = 0.005;
@@ -83,6 +99,8 @@ struct FrontendResult {
   std::vector<FramePairMatch> pairs;                 // accepted pairs, in a fixed order
   std::vector<std::vector<Observation>> landmarks;   // tracks: at most one observation per frame, >= 2 frames
   int same_camera_pairs = 0, cross_camera_pairs = 0, loop_pairs = 0;
+  int rejected_loop_pairs = 0;  // RANSAC-verified loop pairs that disagree with the chained transforms
+  int rejected_far_pairs = 0;   // verified same-camera or loop pairs beyond max_pair_translation_m
   int frames_without_features = 0;  // fewer than min_inliers keypoints with depth
   double feature_ms_per_frame = 0;  // extraction (wall time / frames)
   double matching_ms_per_frame = 0;

@@ -144,6 +144,7 @@ struct TrackingStats {
   double init_seconds = 0, solve_seconds = 0;
   double linear_solver_seconds = 0, jacobian_seconds = 0;  // parts of solve_seconds (Ceres' summary)
   int same_camera_pairs = 0, cross_camera_pairs = 0, loop_pairs = 0, frames_without_features = 0;
+  int rejected_loop_pairs = 0, rejected_far_pairs = 0;  // FrontendResult's, for tracking_stats.json
 };
 
 // One check of verify_tracking: its figure against its limit.
