@@ -72,44 +72,51 @@ TEST(SimEndToEnd, OfficeScanOnDiskHasExactGroundTruth) {
 }
 
 TEST(SimEndToEnd, BuiltinScenesGiveEnoughOrbFeaturesFromTheScanningPositions) {
-  // The tracking front end needs texture: on average >= 300 ORB keypoints (OpenCV defaults)
-  // per 640x480 view, over views all around each scanning position and all three cameras.
+  // The tracking front end needs texture, but at the default ICL-NUIM density not everywhere: over
+  // views all around each scanning position and all three cameras, ORB (OpenCV defaults, 640x480)
+  // finds on average >= 200 keypoints per view, and some views, of plain wall or ceiling, have
+  // almost none (the frames Eq. 2-3 carry). The rich density averages >= 300.
   cv::Ptr<cv::ORB> orb = cv::ORB::create();
   // The default detector keeps at most 500 features; an uncapped one shows the texture's margin.
   cv::Ptr<cv::ORB> uncapped = cv::ORB::create(100000);
-  for (const std::string& name : scenes::builtin_scene_names()) {
-    // Interim pin (issue 15): the 300-keypoint floor was set on the rich texture density; the default
-    // ICL-NUIM density (plain walls) measures a mean of 289. Kept at rich until the tracking work of
-    // issue 15 item 4 settles what the front end needs at the ICL density.
-    const Scene scene = scenes::make_builtin_scene(name, scenes::SceneStyle{scenes::TextureDensity::kRich});
-    SimOptions options;
-    options.noise.preset = NoisePreset::kNone;
-    double total = 0, total_uncapped = 0;
-    int views = 0, poorest = 1 << 30;
-    for (std::size_t position = 0; position < scene.positions.size(); ++position) {
-      const Simulator sim(scene, int(position), options);
-      for (int c = 0; c < 3; ++c) {
-        const auto& frames = sim.schedule()[c];
-        for (int step = 0; step < 8; ++step) {
-          const SimulatedFrame frame = sim.render_frame(frames[step * frames.size() / 8]);
-          cv::Mat rgb(frame.rgb.height, frame.rgb.width, CV_8UC3, const_cast<std::uint8_t*>(frame.rgb.data.data()));
-          cv::Mat grey;
-          cv::cvtColor(rgb, grey, cv::COLOR_RGB2GRAY);
-          std::vector<cv::KeyPoint> keypoints;
-          orb->detect(grey, keypoints);
-          total += keypoints.size();
-          std::vector<cv::KeyPoint> all_keypoints;
-          uncapped->detect(grey, all_keypoints);
-          total_uncapped += all_keypoints.size();
-          poorest = std::min<int>(poorest, int(keypoints.size()));
-          ++views;
+  for (const std::string& name : scenes::builtin_scene_names())
+    for (const scenes::TextureDensity density : {scenes::TextureDensity::kIcl, scenes::TextureDensity::kRich}) {
+      const Scene scene = scenes::make_builtin_scene(name, scenes::SceneStyle{density});
+      SimOptions options;
+      options.noise.preset = NoisePreset::kNone;
+      double total = 0, total_uncapped = 0;
+      int views = 0, poorest = 1 << 30;
+      for (std::size_t position = 0; position < scene.positions.size(); ++position) {
+        const Simulator sim(scene, int(position), options);
+        for (int c = 0; c < 3; ++c) {
+          const auto& frames = sim.schedule()[c];
+          for (int step = 0; step < 8; ++step) {
+            const SimulatedFrame frame = sim.render_frame(frames[step * frames.size() / 8]);
+            cv::Mat rgb(frame.rgb.height, frame.rgb.width, CV_8UC3, const_cast<std::uint8_t*>(frame.rgb.data.data()));
+            cv::Mat grey;
+            cv::cvtColor(rgb, grey, cv::COLOR_RGB2GRAY);
+            std::vector<cv::KeyPoint> keypoints;
+            orb->detect(grey, keypoints);
+            total += keypoints.size();
+            std::vector<cv::KeyPoint> all_keypoints;
+            uncapped->detect(grey, all_keypoints);
+            total_uncapped += all_keypoints.size();
+            poorest = std::min<int>(poorest, int(keypoints.size()));
+            ++views;
+          }
         }
       }
+      const double mean = total / views;
+      const std::string label = name + (density == scenes::TextureDensity::kIcl ? " (icl)" : " (rich)");
+      RecordProperty(name + (density == scenes::TextureDensity::kIcl ? "_icl" : "_rich") + "_mean_orb_keypoints",
+                     std::to_string(mean));
+      std::printf("%s: mean %.0f ORB keypoints per view over %d views (poorest %d); uncapped mean %.0f\n",
+                  label.c_str(), mean, views, poorest, total_uncapped / views);
+      if (density == scenes::TextureDensity::kIcl) {
+        EXPECT_GE(mean, 200.0) << label;
+        EXPECT_LT(poorest, 50) << label;
+      } else {
+        EXPECT_GE(mean, 300.0) << label;
+      }
     }
-    const double mean = total / views;
-    RecordProperty(name + "_mean_orb_keypoints", std::to_string(mean));
-    std::printf("%s: mean %.0f ORB keypoints per view over %d views (poorest %d); uncapped mean %.0f\n", name.c_str(),
-                mean, views, poorest, total_uncapped / views);
-    EXPECT_GE(mean, 300.0) << name;
-  }
 }
