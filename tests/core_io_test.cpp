@@ -12,8 +12,11 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include "panoscan/core/atomic_output.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/geometry.h"
 #include "panoscan/core/image_io.h"
@@ -75,6 +78,43 @@ ImageU16 make_depth_units(int width, int height) {
   image.at(2, 0) = 256;  // high byte only: catches byte-order mistakes
   image.at(3, 0) = 1;
   return image;
+}
+
+// ---------------------------------------------------------------- atomic folders
+
+TEST_F(IoTest, AFolderLeftByAKilledRunIsRemovedByTheNextRunToTheSamePlace) {
+  const fs::path out = dir_ / "scan";
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {  // a run killed while writing: no destructor, no commit
+    AtomicDirectory folder(out, false);
+    std::ofstream(folder.temp_path() / "frame.png") << "half";
+    ::kill(::getpid(), SIGKILL);
+    ::_exit(0);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFSIGNALED(status));
+  const std::vector<std::string> left = listing();
+  ASSERT_EQ(left.size(), 1u);
+  EXPECT_EQ(left[0].rfind(".scan.tmp-", 0), 0u) << left[0];
+  // Leftovers this host cannot judge stay: another host's, and one of a live process (pid 1).
+  const std::string rest = left[0].substr(std::string(".scan.tmp-").size());  // <host>-<pid>-<counter>
+  const std::string host = rest.substr(0, rest.rfind('-', rest.rfind('-') - 1));
+  const std::string live = ".scan.tmp-" + host + "-1-0";
+  fs::create_directory(dir_ / live);
+  fs::create_directory(dir_ / ".scan.tmp-elsewhere-999999-0");
+  {
+    AtomicDirectory next(out, false);
+    std::ofstream(next.temp_path() / "frame.png") << "whole";
+    next.commit();
+  }
+  const std::vector<std::string> after = listing();
+  EXPECT_EQ(std::count(after.begin(), after.end(), left[0]), 0) << "the killed run's folder is removed";
+  EXPECT_EQ(std::count(after.begin(), after.end(), "scan"), 1);
+  EXPECT_EQ(std::count(after.begin(), after.end(), ".scan.tmp-elsewhere-999999-0"), 1);
+  EXPECT_EQ(std::count(after.begin(), after.end(), live), 1);
+  EXPECT_EQ(remove_stale_temporaries(out), 0);
 }
 
 // ---------------------------------------------------------------- PNG

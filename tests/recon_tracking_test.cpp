@@ -159,6 +159,19 @@ TEST_F(TrackingTest, FrontEndFindsTracksAcrossCamerasAndTheLoop) {
   // Cross-camera pairs: the simulated rig's overlap band (about 0.6 deg, 3 px at 320x240) is narrower
   // than ORB's 16-px border, so none are found here; the matcher is exercised but not asserted.
   EXPECT_GE(frontend_->cross_camera_pairs, 0);
+  // The funnel of the cross-camera candidates (recon/tracking/README.md, "Cross-camera matching"):
+  // one candidate per frame and later camera, each step a subset of the one before, the last the
+  // accepted pairs.
+  const CrossCameraFunnel& funnel = frontend_->cross_camera;
+  int expected_candidates = 0;
+  for (std::size_t s = 0; s < scan_->frames.size(); ++s)
+    expected_candidates += int(scan_->frames[s].size() * (scan_->frames.size() - 1 - s));
+  EXPECT_EQ(funnel.candidates, expected_candidates);
+  EXPECT_GE(funnel.candidates, funnel.with_band_keypoints);
+  EXPECT_GE(funnel.with_band_keypoints, funnel.with_matches);
+  EXPECT_GE(funnel.with_matches, funnel.with_ransac);
+  EXPECT_GE(funnel.with_ransac, funnel.accepted);
+  EXPECT_EQ(funnel.accepted, frontend_->cross_camera_pairs);
   EXPECT_GT(frontend_->loop_pairs, 0);
   // The plain walls and ceiling leave some frames of the tilted cameras without features (measured
   // 20 of 186), the case Eq. 2-3 are for; most frames have them.

@@ -120,3 +120,27 @@ TEST(SimEndToEnd, BuiltinScenesGiveEnoughOrbFeaturesFromTheScanningPositions) {
       }
     }
 }
+
+TEST(SimEndToEnd, APositionThatSeesAlmostNothingIsRefusedNamingIt) {
+  // The office with its first position moved 50 m outside the room: a probe of the turn finds
+  // (almost) no depth in the sensor's range, so nothing is written and the error names the position.
+  testutil::TempDir tmp("sim-outside");
+  Scene scene = scenes::make_builtin_scene("office");
+  scene.positions[0].floor_point += Eigen::Vector3d(50.0, 0.0, 0.0);
+  SimOptions options;
+  options.rig.width = 160;
+  options.rig.height = 120;
+  options.output.every = 32;
+  const Simulator outside(scene, 0, options);
+  EXPECT_LT(outside.probe_depth_coverage(), 0.2);
+  const std::string message = testutil::error_of([&] { outside.write_scan(tmp.path() / "scan", false); });
+  EXPECT_NE(message.find(scene.positions[0].name), std::string::npos) << message;
+  EXPECT_NE(message.find("sees almost nothing"), std::string::npos) << message;
+  EXPECT_FALSE(std::filesystem::exists(tmp.path() / "scan"));
+  // Inside the room the same probe sees depth nearly everywhere; with the check off the outside
+  // scan is written.
+  const Simulator inside(scenes::make_builtin_scene("office"), 0, options);
+  EXPECT_GT(inside.probe_depth_coverage(), 0.8);
+  options.output.min_depth_coverage = 0.0;
+  EXPECT_GT(Simulator(scene, 0, options).write_scan(tmp.path() / "unchecked", false), 0u);
+}

@@ -1,12 +1,17 @@
 #include "panoscan/core/atomic_output.h"
 
 #include <atomic>
+#include <cctype>
+#include <cerrno>
 #include <fstream>
 #include <system_error>
+#include <vector>
 
+#include <signal.h>
 #include <unistd.h>
 
 #include "panoscan/core/error.h"
+#include "panoscan/core/log.h"
 
 namespace fs = std::filesystem;
 
@@ -14,11 +19,25 @@ namespace panoscan {
 
 namespace {
 
-// A sibling name unique within this process and across processes (pid + counter).
+// The host, in temporary names: a cache may be shared between machines, and a process id says
+// whether the writer is alive only on its own host.
+std::string host_name() {
+  char name[256] = {0};
+  if (::gethostname(name, sizeof(name) - 1) != 0 || name[0] == 0) return "host";
+  std::string host(name);
+  for (char& c : host)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-') c = '_';
+  return host;
+}
+
+std::string temporary_prefix(const fs::path& path) { return "." + path.filename().string() + ".tmp-"; }
+
+// A sibling name unique within this process and across processes and hosts (host, pid, counter):
+// .<name>.tmp-<host>-<pid>-<counter>.
 fs::path temporary_sibling(const fs::path& path) {
   static std::atomic<unsigned> counter{0};
   const fs::path parent = path.has_parent_path() ? path.parent_path() : fs::path(".");
-  const std::string name = "." + path.filename().string() + ".tmp-" + std::to_string(::getpid()) + "-" +
+  const std::string name = temporary_prefix(path) + host_name() + "-" + std::to_string(::getpid()) + "-" +
                            std::to_string(counter.fetch_add(1));
   return parent / name;
 }
@@ -35,6 +54,42 @@ void ensure_parent_exists(const fs::path& path) {
 }
 
 }  // namespace
+
+int remove_stale_temporaries(const fs::path& path) {
+  const fs::path parent = path.has_parent_path() ? path.parent_path() : fs::path(".");
+  const std::string prefix = temporary_prefix(path) + host_name() + "-";
+  std::error_code ec;
+  fs::directory_iterator it(parent, ec);
+  if (ec) return 0;
+  std::vector<fs::path> stale;
+  for (const fs::directory_entry& entry : it) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind(prefix, 0) != 0) continue;
+    const std::string rest = name.substr(prefix.size());  // <pid>-<counter>[.ext]
+    const std::size_t dash = rest.find('-');
+    if (dash == 0 || dash == std::string::npos) continue;
+    long pid = 0;
+    try {
+      pid = std::stol(rest.substr(0, dash));
+    } catch (...) {
+      continue;
+    }
+    if (pid <= 0 || pid == long(::getpid())) continue;
+    // Alive (or not ours to signal): leave it. Gone: a killed run's leftover.
+    if (::kill(pid_t(pid), 0) == 0 || errno != ESRCH) continue;
+    stale.push_back(entry.path());
+  }
+  int removed = 0;
+  for (const fs::path& p : stale) {
+    std::error_code remove_ec;
+    fs::remove_all(p, remove_ec);
+    if (!remove_ec) {
+      ++removed;
+      log_info("removed " + p.string() + ", left by a run that was killed while writing " + path.string());
+    }
+  }
+  return removed;
+}
 
 void write_via_temp(const fs::path& path, const std::function<void(const fs::path&)>& writer) {
   ensure_parent_exists(path);
@@ -73,6 +128,7 @@ AtomicDirectory::AtomicDirectory(const fs::path& final_path, bool overwrite)
   if (fs::exists(final_path_, ec) && !overwrite_)
     throw make_error(final_path_.string(), "", "already exists (use --overwrite to replace it)");
   ensure_parent_exists(final_path_);
+  remove_stale_temporaries(final_path_);
   temp_path_ = temporary_sibling(final_path_);
   fs::create_directory(temp_path_, ec);
   if (ec) throw make_error(final_path_.string(), "", "cannot create a directory beside it: " + ec.message());

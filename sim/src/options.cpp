@@ -64,6 +64,8 @@ void SimOptions::check(const std::string& origin) const {
           "must be in (0, 90]");
   require(output.every >= 1, origin, "output.every", "must be at least 1");
   require(output.max_frames >= 0, origin, "output.frames", "must not be negative");
+  require(output.min_depth_coverage >= 0.0 && output.min_depth_coverage <= 1.0, origin, "output.min_depth_coverage",
+          "must be in [0, 1]");
   require(output.png_compression >= 0 && output.png_compression <= 9, origin, "output.png_compression",
           "must be in [0, 9]");
   require(threads >= 0, origin, "threads", "must not be negative");
@@ -133,6 +135,7 @@ SimOptions sim_options_from_config(Config& c) {
   o.output.max_frames = c.get_int("output.frames", o.output.max_frames, 0, 10000000);
   o.output.clean_depth = c.get_bool("output.clean_depth", o.output.clean_depth);
   o.output.png_compression = c.get_int("output.png_compression", o.output.png_compression, 0, 9);
+  o.output.min_depth_coverage = c.get_double("output.min_depth_coverage", o.output.min_depth_coverage, 0.0, 1.0);
   o.check(c.origin());
   return o;
 }

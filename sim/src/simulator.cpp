@@ -1,5 +1,7 @@
 #include "panoscan/sim/simulator.h"
 
+#include <fmt/format.h>
+
 #include <atomic>
 #include <cmath>
 
@@ -186,11 +188,45 @@ SimulatedFrame Simulator::render_frame(const FrameTime& frame) const {
   return out;
 }
 
+double Simulator::probe_depth_coverage() const {
+  // 12 frames per camera spread over its schedule (the whole turn): what the scan will see.
+  constexpr int kProbes = 12;
+  std::vector<FrameTime> probes;
+  for (const auto& frames : schedule_)
+    for (int k = 0; k < kProbes && !frames.empty(); ++k) probes.push_back(frames[k * frames.size() / kProbes]);
+  std::vector<std::size_t> valid(probes.size(), 0), pixels(probes.size(), 0);
+  const int threads = options_.threads > 0 ? options_.threads : tbb::task_arena::automatic;
+  tbb::task_arena arena(threads);
+  arena.execute([&] {
+    tbb::parallel_for(std::size_t(0), probes.size(), [&](std::size_t k) {
+      const SimulatedFrame frame = render_frame(probes[k]);
+      for (float z : frame.clean_depth.data) valid[k] += z > 0.f;
+      pixels[k] = frame.clean_depth.data.size();
+    });
+  });
+  std::size_t valid_sum = 0, pixel_sum = 0;
+  for (std::size_t k = 0; k < probes.size(); ++k) {
+    valid_sum += valid[k];
+    pixel_sum += pixels[k];
+  }
+  return pixel_sum == 0 ? 0.0 : double(valid_sum) / double(pixel_sum);
+}
+
 std::size_t Simulator::write_scan(const std::filesystem::path& scan_dir, bool overwrite) const {
   const int num_sensors = int(rig_.num_sensors());
   std::size_t total = 0;
   for (const auto& frames : schedule_) total += frames.size();
   if (total == 0) throw make_error(scan_dir.string(), "output.frames", "the schedule selects no frames");
+  if (options_.output.min_depth_coverage > 0.0) {
+    const double coverage = probe_depth_coverage();
+    if (coverage < options_.output.min_depth_coverage)
+      throw make_error(scene_.name, "position " + position_.name,
+                       fmt::format("the rig sees almost nothing from here: {:.1f}% of the pixels of a probe of the "
+                                   "turn have depth in the sensor's range (at least {:.0f}%, "
+                                   "output.min_depth_coverage); is the position outside the room or inside an "
+                                   "object?",
+                                   100.0 * coverage, 100.0 * options_.output.min_depth_coverage));
+  }
 
   ScanWriter writer(scan_dir, rig_info(), overwrite, options_.output.png_compression);
   std::vector<std::vector<StampedPose>> truth(num_sensors);

@@ -69,9 +69,10 @@ FrameFeatures extract_features(const RgbdFrame& frame, const PinholeIntrinsics& 
   cv::cvtColor(rgb, gray, cv::COLOR_RGB2GRAY);
   const double area_scale = double(intrinsics.width) * intrinsics.height / (640.0 * 480.0);
   const int wanted = std::max(50, int(std::lround(o.orb_features * area_scale)));
-  const int edge = std::max(5, std::min(31, intrinsics.width / 20));
-  auto orb = cv::ORB::create(wanted, float(o.orb_scale_factor), o.orb_levels, edge, 0, 2, cv::ORB::HARRIS_SCORE, edge,
-                             o.orb_fast_threshold);
+  const int patch = std::max(5, std::min(31, intrinsics.width / 20));
+  const int border = o.orb_border_px > 0 ? o.orb_border_px : patch;
+  auto orb = cv::ORB::create(wanted, float(o.orb_scale_factor), o.orb_levels, border, 0, 2, cv::ORB::HARRIS_SCORE,
+                             patch, o.orb_fast_threshold);
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat descriptors;
   orb->detectAndCompute(gray, cv::noArray(), keypoints, descriptors);
@@ -130,8 +131,13 @@ struct PairTask {
   FramePairMatch::Kind kind;
 };
 
+// How far a cross-camera candidate got (CrossCameraFunnel).
+enum class CrossStage { kNone, kBand, kMatches, kRansac, kAccepted };
+
 struct PairOutcome {
   bool accepted = false;
+  CrossStage cross_stage = CrossStage::kNone;
+  int band_keypoints_a = 0, band_keypoints_b = 0, matches = 0, inliers = 0;
   FramePairMatch match;
   std::vector<std::pair<int, int>> keypoint_matches;  // inlier (keypoint a, keypoint b)
 };
@@ -209,7 +215,10 @@ PairOutcome match_pair(const PairTask& task, const std::vector<std::vector<Frame
       if (inside(in_b, predicted_a_from_b.inverse() * point(a.keypoints[i], in_a))) subset_a.push_back(i);
     for (int j = 0; j < int(b.keypoints.size()); ++j)
       if (inside(in_a, predicted_a_from_b * point(b.keypoints[j], in_b))) subset_b.push_back(j);
+    out.band_keypoints_a = int(subset_a.size());
+    out.band_keypoints_b = int(subset_b.size());
     if (int(subset_a.size()) < min_inliers || int(subset_b.size()) < min_inliers) return out;
+    out.cross_stage = CrossStage::kBand;
   } else {
     subset_a.resize(a.keypoints.size());
     std::iota(subset_a.begin(), subset_a.end(), 0);
@@ -217,7 +226,9 @@ PairOutcome match_pair(const PairTask& task, const std::vector<std::vector<Frame
     std::iota(subset_b.begin(), subset_b.end(), 0);
   }
   const auto matches = match_descriptors(a, subset_a, b, subset_b, options);
+  out.matches = int(matches.size());
   if (int(matches.size()) < min_inliers) return out;
+  if (cross) out.cross_stage = CrossStage::kMatches;
   std::vector<Eigen::Vector3d> pa, pb;
   std::vector<double> thresholds;
   for (const auto& [i, j] : matches) {
@@ -229,12 +240,16 @@ PairOutcome match_pair(const PairTask& task, const std::vector<std::vector<Frame
   const std::int64_t key = (std::int64_t(task.sensor_a) * 8 + task.sensor_b) * 100000000LL +
                            std::int64_t(task.frame_a) * 10000 + (task.frame_b % 10000);
   RigidRansacResult ransac;
-  if (!rigid_ransac(pa, pb, thresholds, options.ransac_iterations, min_inliers, options.seed, key, &ransac)) return out;
+  const bool found = rigid_ransac(pa, pb, thresholds, options.ransac_iterations, min_inliers, options.seed, key, &ransac);
+  out.inliers = int(ransac.inliers.size());
+  if (!found) return out;
   if (cross) {
+    out.cross_stage = CrossStage::kRansac;
     const Rigid3d deviation = predicted_a_from_b.inverse() * ransac.a_from_b;
     if (rad2deg(rotation_angle(deviation.linear())) > options.cross_max_deviation_deg ||
         deviation.translation().norm() > options.cross_max_deviation_m)
       return out;
+    out.cross_stage = CrossStage::kAccepted;
   }
   out.accepted = true;
   out.match = {task.sensor_a, task.frame_a, task.sensor_b, task.frame_b, ransac.a_from_b, int(ransac.inliers.size()),
@@ -423,6 +438,20 @@ FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& option
   std::vector<PairOutcome> outcomes(tasks.size());
   tbb::parallel_for(std::size_t(0), tasks.size(),
                     [&](std::size_t k) { outcomes[k] = match_pair(tasks[k], result.features, scan, options); });
+  for (std::size_t k = 0; k < tasks.size(); ++k) {
+    if (tasks[k].kind != FramePairMatch::Kind::kCrossCamera) continue;
+    const PairOutcome& out = outcomes[k];
+    CrossCameraFunnel& funnel = result.cross_camera;
+    ++funnel.candidates;
+    funnel.with_band_keypoints += out.cross_stage >= CrossStage::kBand;
+    funnel.with_matches += out.cross_stage >= CrossStage::kMatches;
+    funnel.with_ransac += out.cross_stage >= CrossStage::kRansac;
+    funnel.accepted += out.cross_stage >= CrossStage::kAccepted;
+    funnel.band_keypoints_a += out.band_keypoints_a;
+    funnel.band_keypoints_b += out.band_keypoints_b;
+    funnel.matches += out.matches;
+    funnel.inliers += out.inliers;
+  }
   reject_implausible_pairs(tasks, outcomes, scan, options, result);
   build_landmarks(outcomes, result);
   const auto done = std::chrono::steady_clock::now();

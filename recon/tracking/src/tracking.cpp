@@ -115,6 +115,7 @@ TrackingOptions tracking_options_from_config(Config& config) {
   f.cross_camera = config.get_bool("frontend.cross_camera", f.cross_camera);
   f.loop_closure = config.get_bool("frontend.loop_closure", f.loop_closure);
   f.loop_frames = config.get_int("frontend.loop_frames", f.loop_frames, 0, 100);
+  f.orb_border_px = config.get_int("frontend.orb_border_px", f.orb_border_px, 0, 100);
   f.loop_max_deviation_deg =
       config.get_double("frontend.loop_max_deviation_deg", f.loop_max_deviation_deg, 0.0, 180.0);
   f.loop_max_deviation_m = config.get_double("frontend.loop_max_deviation_m", f.loop_max_deviation_m, 0.0, 100.0);
@@ -202,6 +203,7 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   stats.loop_pairs = frontend.loop_pairs;
   stats.rejected_loop_pairs = frontend.rejected_loop_pairs;
   stats.rejected_far_pairs = frontend.rejected_far_pairs;
+  stats.cross_camera = frontend.cross_camera;
   stats.frames_without_features = frontend.frames_without_features;
   stats.init_seconds = seconds_between(start, init_done);
   stats.solve_seconds = seconds_between(init_done, solve_done);
@@ -237,6 +239,14 @@ TrackingResult track_scan(const ScanIndex& scan, const TrackingOptions& options)
            " cross-camera, " + std::to_string(frontend.loop_pairs) + " loop pairs (" +
            std::to_string(frontend.rejected_loop_pairs) + " loop and " + std::to_string(frontend.rejected_far_pairs) +
            " far pairs rejected)");
+  const CrossCameraFunnel& funnel = frontend.cross_camera;
+  if (funnel.candidates > 0)
+    log_info("cross-camera pairs: " + std::to_string(funnel.candidates) + " candidates, " +
+             std::to_string(funnel.with_band_keypoints) + " with keypoints in the band, " +
+             std::to_string(funnel.with_matches) + " with matches, " + std::to_string(funnel.with_ransac) +
+             " through RANSAC, " + std::to_string(funnel.accepted) + " agreeing with the calibration (" +
+             std::to_string(funnel.band_keypoints_a + funnel.band_keypoints_b) + " band keypoints, " +
+             std::to_string(funnel.matches) + " matches, " + std::to_string(funnel.inliers) + " inliers in all)");
   return track_with_frontend(scan, frontend, options);
 }
 
@@ -255,6 +265,15 @@ nlohmann::json stats_to_json(const TrackingStats& s) {
       {"pairs", {{"same_camera", s.same_camera_pairs}, {"cross_camera", s.cross_camera_pairs}, {"loop", s.loop_pairs},
                  {"rejected_loop", s.rejected_loop_pairs},
                  {"rejected_far", s.rejected_far_pairs}}},
+      {"cross_camera_funnel",
+       {{"candidates", s.cross_camera.candidates},
+        {"with_band_keypoints", s.cross_camera.with_band_keypoints},
+        {"with_matches", s.cross_camera.with_matches},
+        {"with_ransac", s.cross_camera.with_ransac},
+        {"accepted", s.cross_camera.accepted},
+        {"band_keypoints", {s.cross_camera.band_keypoints_a, s.cross_camera.band_keypoints_b}},
+        {"matches", s.cross_camera.matches},
+        {"inliers", s.cross_camera.inliers}}},
       {"residual_blocks", s.residual_blocks},
       {"parameters", s.parameters},
       {"iterations", s.iterations},

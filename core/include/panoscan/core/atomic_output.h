@@ -16,6 +16,14 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& byt
 void write_via_temp(const std::filesystem::path& path,
                     const std::function<void(const std::filesystem::path& temp_path)>& writer);
 
+// Removes the temporary siblings of `path` (.<name>.tmp-<host>-<pid>-*) that a killed process of
+// this host left behind (its pid no longer exists); returns how many. AtomicDirectory calls it
+// before it writes, so the next run to the same place cleans up after a killed one (a scan, a
+// panorama or a result folder; the files inside a folder are written inside its temporary
+// sibling). Single files written with write_via_temp are not scanned for (a folder of thousands
+// of frames would be listed at every write).
+int remove_stale_temporaries(const std::filesystem::path& path);
+
 // A directory built under a temporary sibling name and renamed into place by commit().
 // If the object is destroyed without commit() the temporary directory is removed.
 // If `final_path` exists and `overwrite` is false, the constructor throws.

@@ -82,6 +82,10 @@ struct OutputOptions {
   int max_frames = 0;        // output.frames: frames per camera after `every` (0 = whole turn)
   bool clean_depth = false;  // output.clean_depth: also write noiseless depth
   int png_compression = 1;   // output.png_compression: 0..9
+  // The scan is refused (naming the position) when fewer than this share of the pixels of a probe
+  // of the turn (12 frames per camera, before anything is written) have depth in the sensor's
+  // range: the rig is outside the room, inside an object, or facing nothing. 0 = no check.
+  double min_depth_coverage = 0.2;  // output.min_depth_coverage
 };
 
 struct SimOptions {

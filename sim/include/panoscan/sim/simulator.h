@@ -50,7 +50,12 @@ class Simulator {
 
   // Renders every scheduled frame and writes the scan directory atomically. Returns the number
   // of frames written. Uses options().threads threads.
+  // Throws Error naming the position when the probe's depth coverage is below
+  // options().output.min_depth_coverage (nothing is written then).
   std::size_t write_scan(const std::filesystem::path& scan_dir, bool overwrite) const;
+
+  // Share of the pixels with depth in the sensor's range over 12 frames per camera spread over the turn.
+  double probe_depth_coverage() const;
 
  private:
   const Scene& scene_;

@@ -36,6 +36,10 @@ struct FrontendOptions {
   double orb_scale_factor = 1.2;  // pyramid scale (sigma_u,v = scale^octave px in Eq. 1)
   int orb_levels = 8;
   int orb_fast_threshold = 12;
+  // Keypoints are detected at least this far from the image border (0 = min(31, width / 20), ORB's
+  // usual border: the 31-px descriptor patch fits inside the image). Smaller values keep keypoints
+  // up to the border, their descriptors computed on ORB's reflected padding.
+  int orb_border_px = 0;  // frontend.orb_border_px
   int max_hamming = 64;             // descriptor distance limit
   double ratio = 0.8;               // Lowe ratio test
   int same_camera_window = 2;       // frame i is matched with i-1 ... i-window of its camera
@@ -94,6 +98,19 @@ struct FramePairMatch {
   enum class Kind { kSameCamera, kCrossCamera, kLoop } kind = Kind::kSameCamera;
 };
 
+// Where cross-camera candidate pairs are lost, step by step (the diagnosis of the narrow overlap:
+// recon/tracking/README.md, "Cross-camera matching"). Each count is of candidate pairs that got
+// that far; the keypoint and match sums are over all candidate pairs.
+struct CrossCameraFunnel {
+  int candidates = 0;           // temporally closest frame pairs of neighbouring cameras
+  int with_band_keypoints = 0;  // both frames have >= min_cross_inliers keypoints in the predicted band
+  int with_matches = 0;         // >= min_cross_inliers descriptor matches (ratio test) inside the band
+  int with_ransac = 0;          // 3D-3D RANSAC found >= min_cross_inliers inliers
+  int accepted = 0;             // and the transform agrees with the calibrated extrinsics
+  long long band_keypoints_a = 0, band_keypoints_b = 0;  // keypoints in the band, summed
+  long long matches = 0, inliers = 0;                    // descriptor matches and RANSAC inliers, summed
+};
+
 struct FrontendResult {
   std::vector<std::vector<FrameFeatures>> features;  // per sensor, per frame of the scan
   std::vector<FramePairMatch> pairs;                 // accepted pairs, in a fixed order
@@ -101,6 +118,7 @@ struct FrontendResult {
   int same_camera_pairs = 0, cross_camera_pairs = 0, loop_pairs = 0;
   int rejected_loop_pairs = 0;  // RANSAC-verified loop pairs that disagree with the chained transforms
   int rejected_far_pairs = 0;   // verified same-camera or loop pairs beyond max_pair_translation_m
+  CrossCameraFunnel cross_camera;
   int frames_without_features = 0;  // fewer than min_inliers keypoints with depth
   double feature_ms_per_frame = 0;  // extraction (wall time / frames)
   double matching_ms_per_frame = 0;

@@ -145,6 +145,7 @@ struct TrackingStats {
   double linear_solver_seconds = 0, jacobian_seconds = 0;  // parts of solve_seconds (Ceres' summary)
   int same_camera_pairs = 0, cross_camera_pairs = 0, loop_pairs = 0, frames_without_features = 0;
   int rejected_loop_pairs = 0, rejected_far_pairs = 0;  // FrontendResult's, for tracking_stats.json
+  CrossCameraFunnel cross_camera;                       // FrontendResult's: where cross-camera pairs are lost
 };
 
 // One check of verify_tracking: its figure against its limit.
