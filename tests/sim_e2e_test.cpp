@@ -139,7 +139,8 @@ TEST(SimEndToEnd, APositionThatSeesAlmostNothingIsRefusedNamingIt) {
   EXPECT_FALSE(std::filesystem::exists(tmp.path() / "scan"));
   // Inside the room the same probe sees depth nearly everywhere; with the check off the outside
   // scan is written.
-  const Simulator inside(scenes::make_builtin_scene("office"), 0, options);
+  const Scene office = scenes::make_builtin_scene("office");  // the Simulator keeps a reference to its scene
+  const Simulator inside(office, 0, options);
   EXPECT_GT(inside.probe_depth_coverage(), 0.8);
   options.output.min_depth_coverage = 0.0;
   EXPECT_GT(Simulator(scene, 0, options).write_scan(tmp.path() / "unchecked", false), 0u);
