@@ -19,6 +19,7 @@
 
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
+#include "cross_camera.h"
 
 namespace panoscan {
 
@@ -43,6 +44,21 @@ void FrontendOptions::check(const std::string& origin) const {
           "must be in [0, 180] (0 = no check)");
   require(loop_max_deviation_m >= 0.0, "loop_max_deviation_m", "must be >= 0 (0 = no check)");
   require(max_pair_translation_m > 0.0, "max_pair_translation_m", "must be > 0");
+  require(band_patch_long_px >= 3 && band_patch_long_px <= 63, "band_patch_long_px", "must be in [3, 63]");
+  require(band_patch_short_px >= 3 && band_patch_short_px <= band_patch_long_px, "band_patch_short_px",
+          "must be in [3, band_patch_long_px]");
+  require(band_search_deg > 0.0 && band_search_deg <= 5.0, "band_search_deg", "must be in (0, 5]");
+  require(band_refine_px >= 1 && band_refine_px <= 20, "band_refine_px", "must be in [1, 20]");
+  require(band_min_ncc > 0.0 && band_min_ncc < 1.0, "band_min_ncc", "must be in (0, 1)");
+  require(band_min_contrast >= 0.0, "band_min_contrast", "must be >= 0");
+  require(band_min_gradient >= 0.0, "band_min_gradient", "must be >= 0");
+  require(band_peak_ratio >= 1.0, "band_peak_ratio", "must be >= 1");
+  require(band_peak_margin >= 0.0, "band_peak_margin", "must be >= 0");
+  require(band_max_shift_spread_px > 0.0, "band_max_shift_spread_px", "must be > 0");
+  require(band_depth_slack_m >= 0.0, "band_depth_slack_m", "must be >= 0");
+  require(band_frames >= 1 && band_frames <= 20, "band_frames", "must be in [1, 20]");
+  require(band_calibration_pairs >= 1, "band_calibration_pairs", "must be >= 1");
+  require(band_max_corners >= 1, "band_max_corners", "must be >= 1");
 }
 
 namespace {
@@ -150,9 +166,9 @@ double point_sigma(const Keypoint& k, const PinholeIntrinsics& intrinsics, const
   return std::sqrt(sigma_z * sigma_z + 2.0 * lateral * lateral);
 }
 
-// Step 2: the candidate frame pairs in a fixed order: each frame with the previous
+// Step 2: the candidate frame pairs of each camera in a fixed order: each frame with the previous
 // same_camera_window frames of its camera, the last loop_frames of each camera with its first
-// ones, and each frame with the temporally closest frame of every other camera.
+// ones. (Pairs across cameras come later, once the chains predict the rig's motion: step 5.)
 std::vector<PairTask> candidate_pairs(const ScanIndex& scan, const std::vector<char>& used,
                                       const FrontendOptions& options) {
   const int sensor_count = int(scan.rig.sensors.size());
@@ -167,29 +183,17 @@ std::vector<PairTask> candidate_pairs(const ScanIndex& scan, const std::vector<c
       for (int a = 0; a < options.loop_frames; ++a)
         for (int b = n - options.loop_frames; b < n; ++b) tasks.push_back({s, a, s, b, FramePairMatch::Kind::kLoop});
   }
-  if (options.cross_camera)
-    for (int sa = 0; sa < sensor_count; ++sa)
-      for (int sb = sa + 1; sb < sensor_count; ++sb) {
-        if (!used[sa] || !used[sb] || scan.frames[sb].empty()) continue;
-        const auto& frames_b = scan.frames[sb];
-        for (int fa = 0; fa < int(scan.frames[sa].size()); ++fa) {
-          const double t = scan.frames[sa][fa].timestamp;
-          auto it = std::lower_bound(frames_b.begin(), frames_b.end(), t,
-                                     [](const FrameEntry& e, double value) { return e.timestamp < value; });
-          int fb = int(it - frames_b.begin());
-          if (fb >= int(frames_b.size()) || (fb > 0 && t - frames_b[fb - 1].timestamp < frames_b[fb].timestamp - t))
-            fb = std::max(0, fb - 1);
-          tasks.push_back({sa, fa, sb, fb, FramePairMatch::Kind::kCrossCamera});
-        }
-      }
 
   return tasks;
 }
 
 // Step 3: one candidate pair matched (ratio test inside the overlap band for cross-camera pairs)
-// and verified by 3D-3D RANSAC (and, across cameras, against the calibrated extrinsics).
+// and verified by 3D-3D RANSAC (and, across cameras, against the predicted transform).
+// `predicted_a_from_b` (cross-camera pairs only): the calibration and the rig's motion between the
+// two shutter times (cross_camera::predict_b_from_a).
 PairOutcome match_pair(const PairTask& task, const std::vector<std::vector<FrameFeatures>>& features,
-                       const ScanIndex& scan, const FrontendOptions& options) {
+                       const ScanIndex& scan, const FrontendOptions& options,
+                       const Rigid3d& predicted_a_from_b = Rigid3d::Identity()) {
   PairOutcome out;
   const FrameFeatures& a = features[task.sensor_a][task.frame_a];
   const FrameFeatures& b = features[task.sensor_b][task.frame_b];
@@ -200,11 +204,8 @@ PairOutcome match_pair(const PairTask& task, const std::vector<std::vector<Frame
   if (int(a.keypoints.size()) < min_inliers || int(b.keypoints.size()) < min_inliers) return out;
   auto point = [](const Keypoint& kp, const PinholeIntrinsics& in) { return in.backproject(kp.u, kp.v, kp.depth); };
   std::vector<int> subset_a, subset_b;
-  Rigid3d predicted_a_from_b = Rigid3d::Identity();
   if (cross) {
-    // The narrow overlap band: keypoints that project into the other camera (calibrated extrinsics).
-    predicted_a_from_b =
-        scan.rig.sensors[task.sensor_a].ref_from_cam.inverse() * scan.rig.sensors[task.sensor_b].ref_from_cam;
+    // The narrow overlap band: keypoints that project into the other camera (predicted transform).
     const double m = options.cross_overlap_margin_px;
     auto inside = [m](const PinholeIntrinsics& in, const Eigen::Vector3d& p) {
       if (p.z() <= 0.05) return false;
@@ -272,8 +273,11 @@ PairOutcome match_pair(const PairTask& task, const std::vector<std::vector<Frame
 //    26 mm; valid loop pairs miss by up to 48 mm on generated office 3), an object matched onto its
 //    twin by its distance to it.
 // Pairs stay in task order, so the result is independent of the thread count.
+// The chains are also what predicts the rig's motion between two cameras' shutter times (step 5):
+// they are returned in *chains.
 void reject_implausible_pairs(const std::vector<PairTask>& tasks, std::vector<PairOutcome>& outcomes,
-                              const ScanIndex& scan, const FrontendOptions& options, FrontendResult& result) {
+                              const ScanIndex& scan, const FrontendOptions& options, FrontendResult& result,
+                              cross_camera::CameraChains* chains_out) {
   const int sensor_count = int(scan.rig.sensors.size());
   std::map<std::array<int, 3>, int> same_camera;  // (sensor, frame a, frame b) -> task
   std::vector<Eigen::Matrix3d> normal(sensor_count, Eigen::Matrix3d::Zero());
@@ -306,8 +310,13 @@ void reject_implausible_pairs(const std::vector<PairTask>& tasks, std::vector<Pa
     axis_point[s] = svd.matrixV() * inverse_sv.asDiagonal() * svd.matrixU().transpose() * rhs[s];
     has_axis_point[s] = 1;
   }
-  std::vector<std::vector<Rigid3d>> chain_from_frame(sensor_count);
-  std::vector<std::vector<int>> chain_of_frame(sensor_count);
+  std::vector<std::vector<Rigid3d>>& chain_from_frame = chains_out->chain_from_frame;
+  std::vector<std::vector<int>>& chain_of_frame = chains_out->chain_of_frame;
+  chain_from_frame.assign(sensor_count, {});
+  chain_of_frame.assign(sensor_count, {});
+  chains_out->timestamps.assign(sensor_count, {});
+  for (int s = 0; s < sensor_count; ++s)
+    for (const FrameEntry& e : scan.frames[s]) chains_out->timestamps[s].push_back(e.timestamp);
   int chains = 0;
   for (int s = 0; s < sensor_count; ++s) {
     const int n = int(scan.frames[s].size());
@@ -383,6 +392,8 @@ void build_landmarks(const std::vector<PairOutcome>& outcomes, FrontendResult& r
       if (x != y) parent[std::max(x, y)] = std::min(x, y);
     }
   }
+  result.cross_landmarks.assign(sensor_count, 0);
+  result.cross_observations.assign(sensor_count, 0);
   std::map<int, std::vector<Observation>> tracks;
   for (int s = 0; s < sensor_count; ++s)
     for (std::size_t f = 0; f < result.features[s].size(); ++f)
@@ -396,8 +407,158 @@ void build_landmarks(const std::vector<PairOutcome>& outcomes, FrontendResult& r
     std::vector<Observation> kept;
     for (const Observation& o : observations)
       if (kept.empty() || kept.back().sensor != o.sensor || kept.back().frame != o.frame) kept.push_back(o);
-    if (kept.size() >= 2) result.landmarks.push_back(std::move(kept));
+    if (kept.size() < 2) continue;
+    std::vector<int> per_sensor(sensor_count, 0);
+    for (const Observation& o : kept) ++per_sensor[o.sensor];
+    const int sensors_seeing = int(std::count_if(per_sensor.begin(), per_sensor.end(), [](int n) { return n > 0; }));
+    if (sensors_seeing >= 2)
+      for (int s = 0; s < sensor_count; ++s)
+        if (per_sensor[s] > 0) {
+          ++result.cross_landmarks[s];
+          result.cross_observations[s] += per_sensor[s];
+        }
+    result.landmarks.push_back(std::move(kept));
   }
+}
+
+// The crops each relation needs: [relation][0 = camera a, 1 = camera b][frame].
+using RelationCrops = std::vector<std::array<std::vector<cross_camera::BandCrop>, 2>>;
+
+// Index of a keypoint of `features` within 1 px of (u, v), appended (no descriptor: it is never
+// matched by descriptor) if there is none; a band match on an ORB keypoint joins its track.
+int keypoint_at(FrameFeatures& features, const Keypoint& k, std::size_t orb_count) {
+  for (std::size_t i = 0; i < features.keypoints.size(); ++i) {
+    const Keypoint& e = features.keypoints[i];
+    if (std::abs(e.u - k.u) <= 1.0f && std::abs(e.v - k.v) <= 1.0f && (i < orb_count || (e.u == k.u && e.v == k.v)))
+      return int(i);
+  }
+  features.keypoints.push_back(k);
+  features.descriptors.push_back(Descriptor{});
+  return int(features.keypoints.size()) - 1;
+}
+
+// Step 5: pairs across cameras, for each overlapping camera pair (cross_camera.h): the band's
+// rotation error first, then each frame of a with the frame of b closest in time by ORB inside the
+// predicted band (cross_camera) and with the band_frames closest ones by band alignment
+// (band_matching). All matching runs first, on the ORB keypoints only; the band matches are then
+// appended as keypoints in task order (independent of the thread count).
+std::vector<PairOutcome> match_across_cameras(const ScanIndex& scan, const FrontendOptions& options,
+                                              const std::vector<cross_camera::Relation>& relations,
+                                              const RelationCrops& crops, const cross_camera::CameraChains& chains,
+                                              FrontendResult& result) {
+  struct CrossTask {
+    int relation, frame_a, frame_b;
+    bool orb, band;
+  };
+  std::vector<CrossTask> tasks;
+  std::vector<Rigid3d> b_from_a_instant(relations.size());
+  CrossCameraFunnel& funnel = result.cross_camera;
+  for (std::size_t r = 0; r < relations.size(); ++r) {
+    const cross_camera::Relation& relation = relations[r];
+    const std::vector<double>& ta = chains.timestamps[relation.sensor_a];
+    const std::vector<double>& tb = chains.timestamps[relation.sensor_b];
+    if (ta.empty() || tb.empty()) continue;
+    // Frames of b in order of their time distance to frame f of a (nearest first).
+    auto nearest = [&](int f, int count) {
+      const int g0 = int(std::lower_bound(tb.begin(), tb.end(), ta[f]) - tb.begin());
+      std::vector<int> near;
+      for (int g = std::max(0, g0 - count); g < std::min(int(tb.size()), g0 + count + 1); ++g) near.push_back(g);
+      std::stable_sort(near.begin(), near.end(),
+                       [&](int x, int y) { return std::abs(tb[x] - ta[f]) < std::abs(tb[y] - ta[f]); });
+      if (int(near.size()) > count) near.resize(count);
+      return near;
+    };
+    const int frames_a = int(ta.size());
+    b_from_a_instant[r] = relation.b_from_a_calibrated;
+    CrossCameraFunnel::BandRelation report{relation.sensor_a, relation.sensor_b, 0, 0.0};
+    if (options.band_matching) {
+      std::vector<std::pair<int, int>> sample;
+      std::vector<const cross_camera::BandCrop*> crops_a, crops_b;
+      const int step = std::max(1, frames_a / std::max(1, options.band_calibration_pairs));
+      for (int f = 0; f < frames_a; f += step)
+        for (int g : nearest(f, options.band_frames)) {
+          sample.push_back({f, g});
+          crops_a.push_back(&crops[r][0][f]);
+          crops_b.push_back(&crops[r][1][g]);
+        }
+      const Eigen::Matrix3d correction = cross_camera::estimate_band_correction(
+          relation, chains, sample, crops_a, crops_b, scan, options, &report.votes);
+      b_from_a_instant[r] = make_rigid(correction, Eigen::Vector3d::Zero()) * relation.b_from_a_calibrated;
+      report.correction_deg = rad2deg(rotation_angle(correction));
+    }
+    funnel.band_relations.push_back(report);
+    for (int f = 0; f < frames_a; ++f) {
+      const std::vector<int> near = nearest(f, std::max(1, options.band_frames));
+      for (std::size_t k = 0; k < near.size(); ++k) {
+        const bool orb = options.cross_camera && k == 0, band = options.band_matching && int(k) < options.band_frames;
+        if (orb || band) tasks.push_back({int(r), f, near[k], orb, band});
+      }
+    }
+  }
+  struct CrossOutcome {
+    bool predicted = false;
+    PairOutcome orb;
+    cross_camera::BandPairResult band;
+  };
+  std::vector<CrossOutcome> outcomes(tasks.size());
+  tbb::parallel_for(std::size_t(0), tasks.size(), [&](std::size_t k) {
+    const CrossTask& task = tasks[k];
+    const cross_camera::Relation& relation = relations[task.relation];
+    Rigid3d b_from_a;
+    if (!cross_camera::predict_b_from_a(chains, relation, b_from_a_instant[task.relation], task.frame_a, task.frame_b,
+                                        &b_from_a))
+      return;
+    outcomes[k].predicted = true;
+    if (task.orb)
+      outcomes[k].orb = match_pair({relation.sensor_a, task.frame_a, relation.sensor_b, task.frame_b,
+                                    FramePairMatch::Kind::kCrossCamera},
+                                   result.features, scan, options, b_from_a.inverse());
+    if (task.band)
+      outcomes[k].band = cross_camera::match_band_pair(relation, b_from_a, crops[task.relation][0][task.frame_a],
+                                                       crops[task.relation][1][task.frame_b], scan, options);
+  });
+  std::vector<std::vector<std::size_t>> orb_count(result.features.size());
+  for (std::size_t s = 0; s < result.features.size(); ++s)
+    for (const FrameFeatures& f : result.features[s]) orb_count[s].push_back(f.keypoints.size());
+  std::vector<PairOutcome> accepted;
+  for (std::size_t k = 0; k < tasks.size(); ++k) {
+    const CrossTask& task = tasks[k];
+    const cross_camera::Relation& relation = relations[task.relation];
+    const CrossOutcome& out = outcomes[k];
+    if (task.orb) {
+      ++funnel.candidates;
+      funnel.unpredicted += !out.predicted;
+      funnel.with_band_keypoints += out.orb.cross_stage >= CrossStage::kBand;
+      funnel.with_matches += out.orb.cross_stage >= CrossStage::kMatches;
+      funnel.with_ransac += out.orb.cross_stage >= CrossStage::kRansac;
+      funnel.accepted += out.orb.cross_stage >= CrossStage::kAccepted;
+      funnel.band_keypoints_a += out.orb.band_keypoints_a;
+      funnel.band_keypoints_b += out.orb.band_keypoints_b;
+      funnel.matches += out.orb.matches;
+      funnel.inliers += out.orb.inliers;
+      if (out.orb.accepted) accepted.push_back(out.orb);
+    }
+    if (!task.band) continue;
+    ++funnel.band_candidates;
+    funnel.band_unpredicted += !out.predicted;
+    funnel.band_with_anchors += out.band.anchors >= options.min_cross_inliers;
+    funnel.band_anchors += out.band.anchors;
+    funnel.band_aligned += out.band.aligned;
+    if (out.band.matches.empty()) continue;
+    ++funnel.band_accepted;
+    funnel.band_matches += out.band.matches.size();
+    PairOutcome pair;
+    pair.accepted = true;
+    pair.match = {relation.sensor_a, task.frame_a, relation.sensor_b, task.frame_b, out.band.a_from_b,
+                  int(out.band.matches.size()), FramePairMatch::Kind::kCrossCamera};
+    FrameFeatures& fa = result.features[relation.sensor_a][task.frame_a];
+    FrameFeatures& fb = result.features[relation.sensor_b][task.frame_b];
+    for (const cross_camera::BandMatch& m : out.band.matches)
+      pair.keypoint_matches.push_back({keypoint_at(fa, m.in_a, orb_count[relation.sensor_a][task.frame_a]),
+                                       keypoint_at(fb, m.in_b, orb_count[relation.sensor_b][task.frame_b])});
+    accepted.push_back(std::move(pair));
+  }
+  return accepted;
 }
 
 }  // namespace
@@ -422,37 +583,42 @@ FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& option
     if (used[s])
       for (int f = 0; f < int(scan.frames[s].size()); ++f) frame_list.push_back({s, f});
   }
+  const std::vector<cross_camera::Relation> relations =
+      options.cross_camera || options.band_matching ? cross_camera::overlapping_relations(scan, used, options)
+                                                    : std::vector<cross_camera::Relation>{};
+  RelationCrops crops(relations.size());
+  if (options.band_matching)
+    for (std::size_t r = 0; r < relations.size(); ++r) {
+      crops[r][0].resize(scan.frames[relations[r].sensor_a].size());
+      crops[r][1].resize(scan.frames[relations[r].sensor_b].size());
+    }
 
-  // 1. Features (one task per frame).
+  // 1. Features and the overlap crops (one task per frame).
   tbb::parallel_for(std::size_t(0), frame_list.size(), [&](std::size_t k) {
     const auto [s, f] = frame_list[k];
     const RgbdFrame frame = load_frame(scan, s, std::size_t(f));
     result.features[s][f] = extract_features(frame, scan.rig.sensors[s].intrinsics, options);
+    if (!options.band_matching) return;
+    for (std::size_t r = 0; r < relations.size(); ++r) {
+      if (relations[r].sensor_a == s) crops[r][0][f] = cross_camera::make_band_crop(frame, relations[r].roi_a, true, options);
+      if (relations[r].sensor_b == s)
+        crops[r][1][f] = cross_camera::make_band_crop(frame, relations[r].roi_b, false, options);
+    }
   });
   const auto features_done = std::chrono::steady_clock::now();
   for (const auto& [s, f] : frame_list)
     if (int(result.features[s][f].keypoints.size()) < options.min_inliers) ++result.frames_without_features;
 
-  // 2. Candidate pairs in a fixed order; 3. matched and verified (one task per pair); 4. landmarks.
+  // 2. Candidate pairs of each camera in a fixed order; 3. matched and verified (one task per
+  // pair); 4. implausible pairs rejected, the chains built; 5. pairs across cameras; 6. landmarks.
   const std::vector<PairTask> tasks = candidate_pairs(scan, used, options);
   std::vector<PairOutcome> outcomes(tasks.size());
   tbb::parallel_for(std::size_t(0), tasks.size(),
                     [&](std::size_t k) { outcomes[k] = match_pair(tasks[k], result.features, scan, options); });
-  for (std::size_t k = 0; k < tasks.size(); ++k) {
-    if (tasks[k].kind != FramePairMatch::Kind::kCrossCamera) continue;
-    const PairOutcome& out = outcomes[k];
-    CrossCameraFunnel& funnel = result.cross_camera;
-    ++funnel.candidates;
-    funnel.with_band_keypoints += out.cross_stage >= CrossStage::kBand;
-    funnel.with_matches += out.cross_stage >= CrossStage::kMatches;
-    funnel.with_ransac += out.cross_stage >= CrossStage::kRansac;
-    funnel.accepted += out.cross_stage >= CrossStage::kAccepted;
-    funnel.band_keypoints_a += out.band_keypoints_a;
-    funnel.band_keypoints_b += out.band_keypoints_b;
-    funnel.matches += out.matches;
-    funnel.inliers += out.inliers;
-  }
-  reject_implausible_pairs(tasks, outcomes, scan, options, result);
+  cross_camera::CameraChains chains;
+  reject_implausible_pairs(tasks, outcomes, scan, options, result, &chains);
+  for (PairOutcome& out : match_across_cameras(scan, options, relations, crops, chains, result))
+    outcomes.push_back(std::move(out));
   build_landmarks(outcomes, result);
   const auto done = std::chrono::steady_clock::now();
   const double frames = std::max<std::size_t>(1, frame_list.size());

@@ -97,6 +97,8 @@ TrackingOptions tracking_options_from_config(Config& config) {
   o.extrinsics_prior_rotation_std_deg =
       config.get_double("track.extrinsics_prior_rotation_std_deg", o.extrinsics_prior_rotation_std_deg, 1e-4, 180.0);
   o.extrinsics_null_prior = config.get_bool("track.extrinsics_null_prior", o.extrinsics_null_prior);
+  o.extrinsics_release_min_landmarks =
+      config.get_int("track.extrinsics_release_min_landmarks", o.extrinsics_release_min_landmarks, 1, 100000000);
   o.shared_wobble = config.get_bool("track.shared_wobble", o.shared_wobble);
   o.wobble_rate_std_deg_s = config.get_double("track.wobble_rate_std_deg_s", o.wobble_rate_std_deg_s, 1e-3, 1e4);
   o.wobble_rate_std_m_s = config.get_double("track.wobble_rate_std_m_s", o.wobble_rate_std_m_s, 1e-5, 100.0);
@@ -124,6 +126,21 @@ TrackingOptions tracking_options_from_config(Config& config) {
   f.ransac_iterations = config.get_int("frontend.ransac_iterations", f.ransac_iterations, 1, 100000);
   f.min_inliers = config.get_int("frontend.min_inliers", f.min_inliers, 3, 10000);
   f.min_cross_inliers = config.get_int("frontend.min_cross_inliers", f.min_cross_inliers, 3, 10000);
+  f.band_matching = config.get_bool("frontend.band_matching", f.band_matching);
+  f.band_patch_long_px = config.get_int("frontend.band_patch_long_px", f.band_patch_long_px, 3, 63);
+  f.band_patch_short_px = config.get_int("frontend.band_patch_short_px", f.band_patch_short_px, 3, 63);
+  f.band_search_deg = config.get_double("frontend.band_search_deg", f.band_search_deg, 0.01, 5.0);
+  f.band_refine_px = config.get_int("frontend.band_refine_px", f.band_refine_px, 1, 20);
+  f.band_min_ncc = config.get_double("frontend.band_min_ncc", f.band_min_ncc, 0.01, 0.999);
+  f.band_min_contrast = config.get_double("frontend.band_min_contrast", f.band_min_contrast, 0.0, 255.0);
+  f.band_peak_ratio = config.get_double("frontend.band_peak_ratio", f.band_peak_ratio, 1.0, 100.0);
+  f.band_min_gradient = config.get_double("frontend.band_min_gradient", f.band_min_gradient, 0.0, 255.0);
+  f.band_peak_margin = config.get_double("frontend.band_peak_margin", f.band_peak_margin, 0.0, 2.0);
+  f.band_max_shift_spread_px =
+      config.get_double("frontend.band_max_shift_spread_px", f.band_max_shift_spread_px, 0.01, 100.0);
+  f.band_depth_slack_m = config.get_double("frontend.band_depth_slack_m", f.band_depth_slack_m, 0.0, 10.0);
+  f.band_frames = config.get_int("frontend.band_frames", f.band_frames, 1, 20);
+  f.band_calibration_pairs = config.get_int("frontend.band_calibration_pairs", f.band_calibration_pairs, 1, 100000);
   f.seed = config.get_u64("seed", f.seed);
   f.threads = o.threads;
   f.depth_noise_coefficient = o.depth_noise_coefficient;
@@ -186,6 +203,7 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   }
   stats.observations = int(graph.blocks[tg::kObservation].size());
   stats.shared_wobble_links = graph.shared_wobble_links;
+  stats.extrinsics_observed = state.extrinsics_observed;
   stats.landmarks = int(state.tracks.size());
   stats.residual_blocks = graph.problem->NumResidualBlocks();
   stats.parameters = graph.problem->NumParameters();
@@ -204,6 +222,8 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   stats.rejected_loop_pairs = frontend.rejected_loop_pairs;
   stats.rejected_far_pairs = frontend.rejected_far_pairs;
   stats.cross_camera = frontend.cross_camera;
+  stats.cross_landmarks = frontend.cross_landmarks;
+  stats.cross_observations = frontend.cross_observations;
   stats.frames_without_features = frontend.frames_without_features;
   stats.init_seconds = seconds_between(start, init_done);
   stats.solve_seconds = seconds_between(init_done, solve_done);
@@ -240,6 +260,16 @@ TrackingResult track_scan(const ScanIndex& scan, const TrackingOptions& options)
            std::to_string(frontend.rejected_loop_pairs) + " loop and " + std::to_string(frontend.rejected_far_pairs) +
            " far pairs rejected)");
   const CrossCameraFunnel& funnel = frontend.cross_camera;
+  if (funnel.band_candidates > 0) {
+    std::string corrections;
+    for (const auto& r : funnel.band_relations)
+      corrections += fmt::format("{}cam{}-cam{} {:.2f} deg ({} votes)", corrections.empty() ? "" : ", ", r.sensor_a,
+                                 r.sensor_b, r.correction_deg, r.votes);
+    log_info(fmt::format("band alignment across cameras: {} frame pairs, {} with corners predicted in the other view, "
+                         "{} accepted ({} corners, {} aligned, {} matches); calibration correction {}",
+                         funnel.band_candidates, funnel.band_with_anchors, funnel.band_accepted, funnel.band_anchors,
+                         funnel.band_aligned, funnel.band_matches, corrections));
+  }
   if (funnel.candidates > 0)
     log_info("cross-camera pairs: " + std::to_string(funnel.candidates) + " candidates, " +
              std::to_string(funnel.with_band_keypoints) + " with keypoints in the band, " +
@@ -253,6 +283,12 @@ TrackingResult track_scan(const ScanIndex& scan, const TrackingOptions& options)
 namespace {
 
 nlohmann::json stats_to_json(const TrackingStats& s) {
+  nlohmann::json band_relations = nlohmann::json::array();
+  for (const auto& r : s.cross_camera.band_relations)
+    band_relations.push_back({{"sensors", {r.sensor_a, r.sensor_b}},
+                              {"votes", r.votes},
+                              {"calibration_correction_deg", r.correction_deg}});
+  std::vector<bool> extrinsics_observed(s.extrinsics_observed.begin(), s.extrinsics_observed.end());
   nlohmann::json j = {
       {"format", "panoscan-tracking-stats"},
       {"version", 1},
@@ -273,7 +309,21 @@ nlohmann::json stats_to_json(const TrackingStats& s) {
         {"accepted", s.cross_camera.accepted},
         {"band_keypoints", {s.cross_camera.band_keypoints_a, s.cross_camera.band_keypoints_b}},
         {"matches", s.cross_camera.matches},
-        {"inliers", s.cross_camera.inliers}}},
+        {"inliers", s.cross_camera.inliers},
+        {"unpredicted", s.cross_camera.unpredicted},
+        {"band",
+         {{"candidates", s.cross_camera.band_candidates},
+          {"unpredicted", s.cross_camera.band_unpredicted},
+          {"with_anchors", s.cross_camera.band_with_anchors},
+          {"accepted", s.cross_camera.band_accepted},
+          {"anchors", s.cross_camera.band_anchors},
+          {"aligned", s.cross_camera.band_aligned},
+          {"matches", s.cross_camera.band_matches},
+          {"camera_pairs", band_relations}}}}},
+      {"cross_camera_per_sensor",
+       {{"landmarks", s.cross_landmarks},
+        {"observations", s.cross_observations},
+        {"extrinsics_observed", extrinsics_observed}}},
       {"residual_blocks", s.residual_blocks},
       {"parameters", s.parameters},
       {"iterations", s.iterations},

@@ -189,6 +189,26 @@ TrackingState initialise_tracking_state(const ScanIndex& scan, const FrontendRes
     for (const Observation& o : kept) ++st.observation_count[o.sensor][o.frame];
     st.tracks.push_back(std::move(kept));
   }
+  // Which extrinsics the cross-camera landmarks observe (TrackingState::extrinsics_observed).
+  std::vector<std::vector<int>> shared(st.sensor_count, std::vector<int>(st.sensor_count, 0));
+  for (const auto& track : st.tracks) {
+    std::vector<char> sees(st.sensor_count, 0);
+    for (const Observation& o : track) sees[o.sensor] = 1;
+    for (int s = 0; s < st.sensor_count; ++s)
+      for (int t = 0; t < st.sensor_count; ++t)
+        if (s != t && sees[s] && sees[t]) ++shared[s][t];
+  }
+  st.extrinsics_observed.assign(st.sensor_count, 0);
+  st.extrinsics_observed[ref] = 1;
+  for (bool grew = true; grew;) {
+    grew = false;
+    for (int s = 0; s < st.sensor_count; ++s)
+      for (int t = 0; t < st.sensor_count && !st.extrinsics_observed[s]; ++t)
+        if (st.extrinsics_observed[t] && shared[s][t] >= options.extrinsics_release_min_landmarks) {
+          st.extrinsics_observed[s] = 1;
+          grew = true;
+        }
+  }
 
   for (int s = 0; s < st.sensor_count; ++s)
     if (st.active[s])
@@ -235,10 +255,11 @@ void add_regularisation_factors(FactorGraph& graph, TrackingState& st, const Tra
           tf::PosePriorCost::create(st.extrinsics[s].q, st.extrinsics[s].t, options.extrinsics_prior_translation_std_m,
                                     deg2rad(options.extrinsics_prior_rotation_std_deg)),
           nullptr, st.extrinsics[s].q, st.extrinsics[s].t));
-  // ... and, held firmly, along the two directions nothing else observes (tracking.h).
+  // ... and, held firmly, along the two directions nothing else observes (tracking.h), unless the
+  // cross-camera landmarks observe them.
   if (options.extrinsics_null_prior)
     for (int s = 0; s < st.sensor_count; ++s)
-      if (s != st.ref && st.active[s] && refine_extrinsics)
+      if (s != st.ref && st.active[s] && refine_extrinsics && !st.extrinsics_observed[s])
         graph.blocks[kPriors].push_back(problem.AddResidualBlock(
             tf::ExtrinsicsNullPriorCost::create(st.extrinsics[s].q, st.extrinsics[s].t, 1e-4, deg2rad(0.01)), nullptr,
             st.extrinsics[s].q, st.extrinsics[s].t, st.axis.q, st.rig.q));

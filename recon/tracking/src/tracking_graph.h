@@ -53,6 +53,9 @@ struct TrackingState {
   std::vector<std::vector<Observation>> tracks;     // landmarks restricted to the active sensors
   std::vector<std::array<double, 3>> landmarks;     // y_j
   std::vector<std::vector<int>> observation_count;  // per sensor, per frame
+  // Per sensor: T_c observed by landmarks it shares with the reference camera, directly or through
+  // cameras that are (>= extrinsics_release_min_landmarks): its null-space prior is released.
+  std::vector<char> extrinsics_observed;
   std::vector<FrameNode> nodes;                     // frames of the active cameras in time order
 };
 

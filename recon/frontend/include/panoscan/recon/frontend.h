@@ -1,7 +1,7 @@
 // Front end of the joint tracking (paper §4.1, "Correspondences between frames and landmarks"):
 // ORB keypoints with depth from the registered depth image, matches between frames of one camera
 // verified by 3D-3D RANSAC, matches across cameras between temporally closest frames inside their
-// narrow overlap band, loop closure at the end of the turn, and landmarks as tracks of matches
+// narrow overlap band (ORB, and band alignment by small patches: src/cross_camera.h), loop closure at the end of the turn, and landmarks as tracks of matches
 // (union-find over matched keypoints).
 //
 // Loop closure: instead of randomised ferns (Glocker et al. 2015) the last `loop_frames` frames
@@ -43,8 +43,25 @@ struct FrontendOptions {
   int max_hamming = 64;             // descriptor distance limit
   double ratio = 0.8;               // Lowe ratio test
   int same_camera_window = 2;       // frame i is matched with i-1 ... i-window of its camera
-  bool cross_camera = true;         // matches between cameras (temporally closest frames)
+  bool cross_camera = true;         // ORB matches between cameras (temporally closest frames)
   int cross_overlap_margin_px = 8;  // a keypoint is in the overlap band if it projects this far inside the other image
+  // Band alignment across cameras (frontend.band_*; src/cross_camera.h): the narrow overlap matched
+  // by small patches warped with the predicted transform and aligned by normalised cross-correlation.
+  bool band_matching = true;       // frontend.band_matching
+  int band_patch_long_px = 21;     // frontend.band_patch_long_px: patch length along the band
+  int band_patch_short_px = 3;     // frontend.band_patch_short_px: and across it (the band: 4-8 px)
+  double band_search_deg = 1.2;    // frontend.band_search_deg: calibration error the first search covers
+  int band_refine_px = 3;          // frontend.band_refine_px: per-pair search around the corrected prediction
+  double band_min_ncc = 0.85;      // frontend.band_min_ncc: correlation floor of an aligned patch
+  double band_min_contrast = 3.0;  // frontend.band_min_contrast: grey-level std of a usable patch
+  double band_min_gradient = 1.5;  // frontend.band_min_gradient: grey levels / px in its weaker direction
+  double band_peak_ratio = 1.5;    // frontend.band_peak_ratio: votes for the correction vs any 3 px away
+  double band_peak_margin = 0.05;  // frontend.band_peak_margin: a patch's peak correlation vs its best 3 px away
+  double band_max_shift_spread_px = 1.5;  // frontend.band_max_shift_spread_px: from the pair's median shift
+  double band_depth_slack_m = 0.02;  // frontend.band_depth_slack_m: beyond 3 sigma of the depth noise
+  int band_frames = 3;               // frontend.band_frames: frames of the other camera nearest in time
+  int band_calibration_pairs = 256;  // frontend.band_calibration_pairs: frames of a sampled for the first search
+  int band_max_corners = 1500;       // corners kept per crop (strongest first)
   bool loop_closure = true;
   int loop_frames = 4;  // last k frames vs first k frames of each camera
   // A loop pair is kept only if its rotation is within loop_max_deviation_deg of the chained
@@ -109,6 +126,18 @@ struct CrossCameraFunnel {
   int accepted = 0;             // and the transform agrees with the calibrated extrinsics
   long long band_keypoints_a = 0, band_keypoints_b = 0;  // keypoints in the band, summed
   long long matches = 0, inliers = 0;                    // descriptor matches and RANSAC inliers, summed
+  int unpredicted = 0;  // no chain covered both shutter times (the pair was not tried)
+  // Band alignment (src/cross_camera.h): frame pairs tried, with enough corners of a predicted
+  // inside b, and accepted; corners, aligned patches and matches summed.
+  int band_candidates = 0, band_unpredicted = 0, band_with_anchors = 0, band_accepted = 0;
+  long long band_anchors = 0, band_aligned = 0, band_matches = 0;
+  // Per overlapping camera pair: the calibration's rotation error the band's first search found, and
+  // how many patch votes agreed on it (too few or ambiguous: none applied).
+  struct BandRelation {
+    int sensor_a = 0, sensor_b = 0, votes = 0;
+    double correction_deg = 0;
+  };
+  std::vector<BandRelation> band_relations;
 };
 
 struct FrontendResult {
@@ -119,6 +148,8 @@ struct FrontendResult {
   int rejected_loop_pairs = 0;  // RANSAC-verified loop pairs that disagree with the chained transforms
   int rejected_far_pairs = 0;   // verified same-camera or loop pairs beyond max_pair_translation_m
   CrossCameraFunnel cross_camera;
+  // Per sensor: landmarks it shares with another camera, and its observations of them.
+  std::vector<int> cross_landmarks, cross_observations;
   int frames_without_features = 0;  // fewer than min_inliers keypoints with depth
   double feature_ms_per_frame = 0;  // extraction (wall time / frames)
   double matching_ms_per_frame = 0;

@@ -99,6 +99,9 @@ struct TrackingOptions {
   // Holds T_c at the calibration (0.1 mm, 0.01 deg) along its two unobserved directions (rotation
   // about and sliding along the axis), where only weak second-order forces act.
   bool extrinsics_null_prior = true;  // track.extrinsics_null_prior
+  // ... released for a camera whose T_c the data observe: it shares at least this many landmarks
+  // with the reference camera, or with a camera that does (cross-camera band matches, frontend.h).
+  int extrinsics_release_min_landmarks = 20;  // track.extrinsics_release_min_landmarks
   // Shared wobble (beyond the paper; SharedWobbleCost in tracking_factors.h): consecutive frames of
   // different cameras dt apart share the rig's wobble up to its change over dt, std = rate * dt (+ a
   // floor for timestamp jitter); linked only while rate * dt is below Eq. 2's std (beyond that the
@@ -146,6 +149,8 @@ struct TrackingStats {
   int same_camera_pairs = 0, cross_camera_pairs = 0, loop_pairs = 0, frames_without_features = 0;
   int rejected_loop_pairs = 0, rejected_far_pairs = 0;  // FrontendResult's, for tracking_stats.json
   CrossCameraFunnel cross_camera;                       // FrontendResult's: where cross-camera pairs are lost
+  std::vector<int> cross_landmarks, cross_observations;  // per sensor (FrontendResult's)
+  std::vector<char> extrinsics_observed;  // per sensor: null-space prior released (extrinsics_release_min_landmarks)
 };
 
 // One check of verify_tracking: its figure against its limit.
