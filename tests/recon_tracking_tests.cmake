@@ -15,3 +15,8 @@ panoscan_add_test(recon_cross_camera_test
   DEPS panoscan_recon_frontend opencv_core
   LABELS recon)
 target_include_directories(recon_cross_camera_test PRIVATE ${CMAKE_SOURCE_DIR}/recon/frontend/src)
+# The shared ORB module: the matching rule and detection.
+panoscan_add_test(recon_features_test
+  SOURCES recon_features_test.cpp
+  DEPS panoscan_recon_features
+  LABELS recon)

@@ -11,14 +11,12 @@
 #include <numeric>
 
 #include <fmt/format.h>
-#include <opencv2/core.hpp>
-#include <opencv2/features2d.hpp>
-#include <opencv2/imgproc.hpp>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
+#include "panoscan/recon/orb_features.h"
 #include "cross_camera.h"
 
 namespace panoscan {
@@ -63,83 +61,29 @@ void FrontendOptions::check(const std::string& origin) const {
 
 namespace {
 
-using Descriptor = std::array<std::uint8_t, 32>;
-
-// Inlined into match_descriptors, which is compiled twice on x86-64 (below).
-inline int hamming(const Descriptor& a, const Descriptor& b) {
-  int distance = 0;
-  for (int i = 0; i < 32; i += 8) {
-    std::uint64_t x, y;
-    std::memcpy(&x, a.data() + i, 8);
-    std::memcpy(&y, b.data() + i, 8);
-    distance += __builtin_popcountll(x ^ y);
-  }
-  return distance;
-}
-
 FrameFeatures extract_features(const RgbdFrame& frame, const PinholeIntrinsics& intrinsics, const FrontendOptions& o) {
   FrameFeatures features;
   features.timestamp = frame.timestamp;
-  cv::Mat rgb(frame.rgb.height, frame.rgb.width, CV_8UC3, const_cast<std::uint8_t*>(frame.rgb.data.data()));
-  cv::Mat gray;
-  cv::cvtColor(rgb, gray, cv::COLOR_RGB2GRAY);
   const double area_scale = double(intrinsics.width) * intrinsics.height / (640.0 * 480.0);
-  const int wanted = std::max(50, int(std::lround(o.orb_features * area_scale)));
-  const int patch = std::max(5, std::min(31, intrinsics.width / 20));
-  const int border = o.orb_border_px > 0 ? o.orb_border_px : patch;
-  auto orb = cv::ORB::create(wanted, float(o.orb_scale_factor), o.orb_levels, border, 0, 2, cv::ORB::HARRIS_SCORE,
-                             patch, o.orb_fast_threshold);
-  std::vector<cv::KeyPoint> keypoints;
-  cv::Mat descriptors;
-  orb->detectAndCompute(gray, cv::noArray(), keypoints, descriptors);
+  OrbDetectorOptions orb;
+  orb.features = std::max(50, int(std::lround(o.orb_features * area_scale)));
+  orb.scale_factor = o.orb_scale_factor;
+  orb.levels = o.orb_levels;
+  orb.fast_threshold = o.orb_fast_threshold;
+  orb.patch_px = std::max(5, std::min(31, intrinsics.width / 20));
+  orb.border_px = o.orb_border_px;  // 0 = the patch
+  std::vector<OrbKeypoint> keypoints;
+  std::vector<OrbDescriptor> descriptors;
+  detect_orb(frame.rgb, orb, &keypoints, &descriptors);
   for (std::size_t i = 0; i < keypoints.size(); ++i) {
-    const int x = int(std::lround(keypoints[i].pt.x)), y = int(std::lround(keypoints[i].pt.y));
+    const int x = int(std::lround(keypoints[i].u)), y = int(std::lround(keypoints[i].v));
     if (x < 0 || y < 0 || x >= frame.depth.width || y >= frame.depth.height) continue;
     const float z = frame.depth.data[std::size_t(y) * frame.depth.width + x];
     if (!(z >= o.min_depth_m && z <= o.max_depth_m)) continue;
-    features.keypoints.push_back({keypoints[i].pt.x, keypoints[i].pt.y, z, keypoints[i].octave});
-    Descriptor d;
-    std::memcpy(d.data(), descriptors.ptr<std::uint8_t>(int(i)), 32);
-    features.descriptors.push_back(d);
+    features.keypoints.push_back({keypoints[i].u, keypoints[i].v, z, keypoints[i].octave});
+    features.descriptors.push_back(descriptors[i]);
   }
   return features;
-}
-
-// Mutual-free nearest neighbour with a ratio test, a -> b, restricted to the candidate subsets.
-// Debian builds for the x86-64 baseline, which has no POPCNT instruction: __builtin_popcountll
-// becomes a libgcc call that took 7% of a tracking run. A clone for CPUs with POPCNT is picked at
-// load time (GCC function multi-versioning); other CPUs run the baseline clone.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("popcnt", "default")))
-#endif
-std::vector<std::pair<int, int>>
-match_descriptors(const FrameFeatures& a, const std::vector<int>& subset_a, const FrameFeatures& b,
-                  const std::vector<int>& subset_b, const FrontendOptions& o) {
-  std::vector<std::pair<int, int>> matches;
-  std::vector<int> best_for_b(b.keypoints.size(), -1), best_distance_b(b.keypoints.size(), 1 << 20);
-  std::vector<std::pair<int, int>> candidates;
-  for (int i : subset_a) {
-    int best = -1, d1 = 1 << 20, d2 = 1 << 20;
-    for (int j : subset_b) {
-      const int d = hamming(a.descriptors[i], b.descriptors[j]);
-      if (d < d1) {
-        d2 = d1;
-        d1 = d;
-        best = j;
-      } else if (d < d2) {
-        d2 = d;
-      }
-    }
-    if (best < 0 || d1 > o.max_hamming || d1 >= o.ratio * d2) continue;
-    candidates.push_back({i, best});
-    if (d1 < best_distance_b[best]) {
-      best_distance_b[best] = d1;
-      best_for_b[best] = i;
-    }
-  }
-  for (const auto& m : candidates)
-    if (best_for_b[m.second] == m.first) matches.push_back(m);  // one a per b
-  return matches;
 }
 
 struct PairTask {
@@ -226,7 +170,8 @@ PairOutcome match_pair(const PairTask& task, const std::vector<std::vector<Frame
     subset_b.resize(b.keypoints.size());
     std::iota(subset_b.begin(), subset_b.end(), 0);
   }
-  const auto matches = match_descriptors(a, subset_a, b, subset_b, options);
+  const auto matches =
+      match_orb(a.descriptors, subset_a, b.descriptors, subset_b, {options.max_hamming, options.ratio});
   out.matches = int(matches.size());
   if (int(matches.size()) < min_inliers) return out;
   if (cross) out.cross_stage = CrossStage::kMatches;
@@ -241,7 +186,8 @@ PairOutcome match_pair(const PairTask& task, const std::vector<std::vector<Frame
   const std::int64_t key = (std::int64_t(task.sensor_a) * 8 + task.sensor_b) * 100000000LL +
                            std::int64_t(task.frame_a) * 10000 + (task.frame_b % 10000);
   RigidRansacResult ransac;
-  const bool found = rigid_ransac(pa, pb, thresholds, options.ransac_iterations, min_inliers, options.seed, key, &ransac);
+  const bool found =
+      rigid_ransac(pa, pb, thresholds, options.ransac_iterations, min_inliers, options.seed, key, &ransac);
   out.inliers = int(ransac.inliers.size());
   if (!found) return out;
   if (cross) {
@@ -348,10 +294,10 @@ void reject_implausible_pairs(const std::vector<PairTask>& tasks, std::vector<Pa
       miss_m = (a_from_b.translation() - (Eigen::Matrix3d::Identity() - a_from_b.linear()) * axis_point[s]).norm();
     const bool agrees = (options.loop_max_deviation_deg <= 0.0 || angle_deg <= options.loop_max_deviation_deg) &&
                         (options.loop_max_deviation_m <= 0.0 || miss_m <= options.loop_max_deviation_m);
-    log_debug(fmt::format("{}: loop pair cam{} {}-{}: rotation {:.2f} deg from the chained transforms, translation "
-                          "{:.1f} mm from the rotator's{}",
-                          scan.root.string(), s, task.frame_a, task.frame_b, angle_deg, 1e3 * miss_m,
-                          agrees ? "" : ": rejected"));
+    log_debug(fmt::format(
+        "{}: loop pair cam{} {}-{}: rotation {:.2f} deg from the chained transforms, translation "
+        "{:.1f} mm from the rotator's{}",
+        scan.root.string(), s, task.frame_a, task.frame_b, angle_deg, 1e3 * miss_m, agrees ? "" : ": rejected"));
     if (!agrees) {
       out.accepted = false;
       ++result.rejected_loop_pairs;
@@ -433,7 +379,7 @@ int keypoint_at(FrameFeatures& features, const Keypoint& k, std::size_t orb_coun
       return int(i);
   }
   features.keypoints.push_back(k);
-  features.descriptors.push_back(Descriptor{});
+  features.descriptors.push_back(OrbDescriptor{});
   return int(features.keypoints.size()) - 1;
 }
 
@@ -481,8 +427,8 @@ std::vector<PairOutcome> match_across_cameras(const ScanIndex& scan, const Front
           crops_a.push_back(&crops[r][0][f]);
           crops_b.push_back(&crops[r][1][g]);
         }
-      const Eigen::Matrix3d correction = cross_camera::estimate_band_correction(
-          relation, chains, sample, crops_a, crops_b, scan, options, &report.votes);
+      const Eigen::Matrix3d correction = cross_camera::estimate_band_correction(relation, chains, sample, crops_a,
+                                                                                crops_b, scan, options, &report.votes);
       b_from_a_instant[r] = make_rigid(correction, Eigen::Vector3d::Zero()) * relation.b_from_a_calibrated;
       report.correction_deg = rad2deg(rotation_angle(correction));
     }
@@ -510,9 +456,9 @@ std::vector<PairOutcome> match_across_cameras(const ScanIndex& scan, const Front
       return;
     outcomes[k].predicted = true;
     if (task.orb)
-      outcomes[k].orb = match_pair({relation.sensor_a, task.frame_a, relation.sensor_b, task.frame_b,
-                                    FramePairMatch::Kind::kCrossCamera},
-                                   result.features, scan, options, b_from_a.inverse());
+      outcomes[k].orb = match_pair(
+          {relation.sensor_a, task.frame_a, relation.sensor_b, task.frame_b, FramePairMatch::Kind::kCrossCamera},
+          result.features, scan, options, b_from_a.inverse());
     if (task.band)
       outcomes[k].band = cross_camera::match_band_pair(relation, b_from_a, crops[task.relation][0][task.frame_a],
                                                        crops[task.relation][1][task.frame_b], scan, options);
@@ -549,8 +495,13 @@ std::vector<PairOutcome> match_across_cameras(const ScanIndex& scan, const Front
     funnel.band_matches += out.band.matches.size();
     PairOutcome pair;
     pair.accepted = true;
-    pair.match = {relation.sensor_a, task.frame_a, relation.sensor_b, task.frame_b, out.band.a_from_b,
-                  int(out.band.matches.size()), FramePairMatch::Kind::kCrossCamera};
+    pair.match = {relation.sensor_a,
+                  task.frame_a,
+                  relation.sensor_b,
+                  task.frame_b,
+                  out.band.a_from_b,
+                  int(out.band.matches.size()),
+                  FramePairMatch::Kind::kCrossCamera};
     FrameFeatures& fa = result.features[relation.sensor_a][task.frame_a];
     FrameFeatures& fb = result.features[relation.sensor_b][task.frame_b];
     for (const cross_camera::BandMatch& m : out.band.matches)
@@ -583,9 +534,9 @@ FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& option
     if (used[s])
       for (int f = 0; f < int(scan.frames[s].size()); ++f) frame_list.push_back({s, f});
   }
-  const std::vector<cross_camera::Relation> relations =
-      options.cross_camera || options.band_matching ? cross_camera::overlapping_relations(scan, used, options)
-                                                    : std::vector<cross_camera::Relation>{};
+  const std::vector<cross_camera::Relation> relations = options.cross_camera || options.band_matching
+                                                            ? cross_camera::overlapping_relations(scan, used, options)
+                                                            : std::vector<cross_camera::Relation>{};
   RelationCrops crops(relations.size());
   if (options.band_matching)
     for (std::size_t r = 0; r < relations.size(); ++r) {
@@ -600,7 +551,8 @@ FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& option
     result.features[s][f] = extract_features(frame, scan.rig.sensors[s].intrinsics, options);
     if (!options.band_matching) return;
     for (std::size_t r = 0; r < relations.size(); ++r) {
-      if (relations[r].sensor_a == s) crops[r][0][f] = cross_camera::make_band_crop(frame, relations[r].roi_a, true, options);
+      if (relations[r].sensor_a == s)
+        crops[r][0][f] = cross_camera::make_band_crop(frame, relations[r].roi_a, true, options);
       if (relations[r].sensor_b == s)
         crops[r][1][f] = cross_camera::make_band_crop(frame, relations[r].roi_b, false, options);
     }

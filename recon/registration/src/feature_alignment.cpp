@@ -3,17 +3,16 @@
 #include <algorithm>
 #include <cmath>
 
-#include <opencv2/core.hpp>
-#include <opencv2/features2d.hpp>
-
 #include "panoscan/core/error.h"
 #include "panoscan/core/rigid_ransac.h"
+#include "panoscan/recon/orb_features.h"
 
 namespace panoscan {
 
 void FeatureAlignmentOptions::check() const {
   if (max_features < 10) throw make_error("", "features.max_features", "must be at least 10");
   if (!(ratio_test > 0 && ratio_test <= 1)) throw make_error("", "features.ratio_test", "must be in (0, 1]");
+  if (max_hamming < 1 || max_hamming > 256) throw make_error("", "features.max_hamming", "must be in [1, 256]");
   if (!(inlier_threshold_m > 0)) throw make_error("", "features.inlier_threshold_m", "must be positive");
   if (ransac_iterations < 1) throw make_error("", "features.ransac_iterations", "must be at least 1");
   if (min_inliers < 3) throw make_error("", "features.min_inliers", "must be at least 3");
@@ -22,8 +21,8 @@ void FeatureAlignmentOptions::check() const {
 namespace {
 
 struct Features {
-  std::vector<Eigen::Vector3d> points;  // back-projected keypoints (panorama frame)
-  cv::Mat descriptors;                  // rows aligned with points
+  std::vector<Eigen::Vector3d> points;     // back-projected keypoints (panorama frame)
+  std::vector<OrbDescriptor> descriptors;  // aligned with points
 };
 
 Features detect(const PanoramaImages& images, const FeatureAlignmentOptions& options, const char* role) {
@@ -33,25 +32,20 @@ Features detect(const PanoramaImages& images, const FeatureAlignmentOptions& opt
   if (rgb.channels != 3 || rgb.width != 2 * rgb.height || depth.width != rgb.width || depth.height != rgb.height)
     throw make_error("", std::string(role) + " panorama",
                      "needs H x 2H colour (3 channels) and depth of the same size");
-  cv::Mat grey(rgb.height, rgb.width, CV_8UC1);
-  for (int y = 0; y < rgb.height; ++y)
-    for (int x = 0; x < rgb.width; ++x) {
-      const std::uint8_t* p = &rgb.at(x, y, 0);
-      grey.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>((77 * p[0] + 150 * p[1] + 29 * p[2]) >> 8);
-    }
-  cv::Ptr<cv::ORB> orb = cv::ORB::create(options.max_features);
-  std::vector<cv::KeyPoint> keypoints;
-  cv::Mat descriptors;
-  orb->detectAndCompute(grey, cv::noArray(), keypoints, descriptors);
+  OrbDetectorOptions orb;  // OpenCV's ORB defaults but the count
+  orb.features = options.max_features;
+  std::vector<OrbKeypoint> keypoints;
+  std::vector<OrbDescriptor> descriptors;
+  detect_orb(rgb, orb, &keypoints, &descriptors);
   const Equirectangular pano{rgb.height};
   Features features;
   for (std::size_t i = 0; i < keypoints.size(); ++i) {
-    const int x = std::clamp(int(std::lround(keypoints[i].pt.x)), 0, rgb.width - 1);
-    const int y = std::clamp(int(std::lround(keypoints[i].pt.y)), 0, rgb.height - 1);
+    const int x = std::clamp(int(std::lround(keypoints[i].u)), 0, rgb.width - 1);
+    const int y = std::clamp(int(std::lround(keypoints[i].v)), 0, rgb.height - 1);
     const float z = depth.at(x, y);
     if (!(z > 0) || !std::isfinite(z)) continue;
-    features.points.push_back(pano.direction(keypoints[i].pt.x, keypoints[i].pt.y) * double(z));
-    features.descriptors.push_back(descriptors.row(int(i)));
+    features.points.push_back(pano.direction(keypoints[i].u, keypoints[i].v) * double(z));
+    features.descriptors.push_back(descriptors[i]);
   }
   return features;
 }
@@ -70,23 +64,11 @@ FeatureAlignment align_panorama_features(const PanoramaImages& source, const Pan
     result.failure = "too few features with depth";
     return result;
   }
-  // Ratio test in both directions, then keep mutual matches (cross check).
-  cv::BFMatcher matcher(cv::NORM_HAMMING);
-  std::vector<std::vector<cv::DMatch>> forward, backward;
-  matcher.knnMatch(from.descriptors, to.descriptors, forward, 2);
-  matcher.knnMatch(to.descriptors, from.descriptors, backward, 2);
-  auto best = [&](const std::vector<cv::DMatch>& candidates) {
-    if (candidates.empty()) return -1;
-    if (candidates.size() > 1 && candidates[0].distance > options.ratio_test * candidates[1].distance) return -1;
-    return candidates[0].trainIdx;
-  };
+  // The shared ORB matching (orb_features.h): ratio test both ways, mutual.
   std::vector<Eigen::Vector3d> matched_from, matched_to;
-  for (std::size_t i = 0; i < forward.size(); ++i) {
-    const int j = best(forward[i]);
-    if (j >= 0 && best(backward[std::size_t(j)]) == int(i)) {
-      matched_from.push_back(from.points[i]);
-      matched_to.push_back(to.points[std::size_t(j)]);
-    }
+  for (const auto& [i, j] : match_orb(from.descriptors, to.descriptors, {options.max_hamming, options.ratio_test})) {
+    matched_from.push_back(from.points[std::size_t(i)]);
+    matched_to.push_back(to.points[std::size_t(j)]);
   }
   result.matches = int(matched_from.size());
   result.matched_source = matched_from;

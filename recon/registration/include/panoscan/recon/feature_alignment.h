@@ -1,5 +1,7 @@
 // Initial guess for registering two panoramas (paper §5.1): ORB matches between the two colour
-// panoramas, back-projected to 3D with their radial depths, and a rigid RANSAC on the 3D pairs.
+// panoramas (the shared ORB module, panoscan/recon/orb_features.h: the same detection and matching
+// as the tracking front end), back-projected to 3D with their radial depths, and a rigid RANSAC on
+// the 3D pairs (core's rigid_ransac).
 #pragma once
 
 #include <cstdint>
@@ -21,7 +23,8 @@ struct PanoramaImages {
 
 struct FeatureAlignmentOptions {
   int max_features = 8000;           // ORB features per panorama
-  double ratio_test = 0.8;           // Lowe's ratio on Hamming distances
+  double ratio_test = 0.8;           // Lowe's ratio on Hamming distances (both directions, mutual)
+  int max_hamming = 64;              // features.max_hamming: descriptor distance limit (of 256 bits)
   double inlier_threshold_m = 0.05;  // RANSAC: 3D distance after the transform
   int ransac_iterations = 4000;
   int min_inliers = 25;    // below this the alignment is reported as failed

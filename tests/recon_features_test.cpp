@@ -1,0 +1,77 @@
+// The shared ORB module (recon/features): the matching rule every user gets, and detection.
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "panoscan/recon/orb_features.h"
+
+namespace panoscan {
+namespace {
+
+OrbDescriptor random_descriptor(std::mt19937& rng) {
+  OrbDescriptor d;
+  for (auto& byte : d) byte = std::uint8_t(rng() & 0xff);
+  return d;
+}
+
+// `bits` bits of d flipped.
+OrbDescriptor flipped(OrbDescriptor d, int bits) {
+  for (int i = 0; i < bits; ++i) d[std::size_t(i % 32)] ^= std::uint8_t(1u << (i / 32));
+  return d;
+}
+
+TEST(OrbMatching, RatioTestBothWaysAndMutual) {
+  std::mt19937 rng(3);
+  std::vector<OrbDescriptor> a, b;
+  // a0 -> b0: a clear match.
+  b.push_back(random_descriptor(rng));
+  a.push_back(flipped(b[0], 4));
+  // a1 is ambiguous between b1 and b2 (ratio fails on a's side).
+  b.push_back(random_descriptor(rng));
+  b.push_back(flipped(b[1], 2));
+  a.push_back(flipped(b[1], 1));
+  // a2 and a3 are both nearest to b3 and as close: each passes a's ratio test, b3's fails.
+  b.push_back(random_descriptor(rng));
+  a.push_back(flipped(b[3], 3));
+  a.push_back(flipped(b[3], 3));
+  // a4 -> b4 but farther than max_hamming.
+  b.push_back(random_descriptor(rng));
+  a.push_back(flipped(b[4], 70));
+  const auto matches = match_orb(a, b, OrbMatchOptions{});
+  ASSERT_EQ(matches.size(), 1u);
+  EXPECT_EQ(matches[0], std::make_pair(0, 0));
+  // Subsets: indices refer to the full vectors.
+  const auto restricted = match_orb(a, {0, 4}, b, {0, 4}, OrbMatchOptions{});
+  ASSERT_EQ(restricted.size(), 1u);
+  EXPECT_EQ(restricted[0], std::make_pair(0, 0));
+  EXPECT_EQ(hamming_distance(a[0], b[0]), 4);
+  OrbMatchOptions loose;
+  loose.max_hamming = 256;
+  EXPECT_EQ(match_orb({a[4]}, {b[4]}, loose).size(), 1u);
+}
+
+TEST(OrbDetection, KeypointsKeepTheirDistanceFromTheBorder) {
+  ImageU8 image(200, 150, 1);
+  std::mt19937 rng(5);
+  for (auto& p : image.data) p = std::uint8_t(rng() % 256);
+  OrbDetectorOptions options;
+  options.features = 300;
+  options.patch_px = 15;
+  options.border_px = 20;
+  std::vector<OrbKeypoint> keypoints;
+  std::vector<OrbDescriptor> descriptors;
+  detect_orb(image, options, &keypoints, &descriptors);
+  ASSERT_GT(keypoints.size(), 50u);
+  EXPECT_EQ(keypoints.size(), descriptors.size());
+  for (const OrbKeypoint& k : keypoints) {
+    EXPECT_GE(k.u, 19.0f);
+    EXPECT_GE(k.v, 19.0f);
+    EXPECT_LE(k.u, 200 - 20.0f);
+    EXPECT_LE(k.v, 150 - 20.0f);
+  }
+}
+
+}  // namespace
+}  // namespace panoscan
