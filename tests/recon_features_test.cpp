@@ -22,7 +22,7 @@ OrbDescriptor flipped(OrbDescriptor d, int bits) {
   return d;
 }
 
-TEST(OrbMatching, RatioTestBothWaysAndMutual) {
+TEST(OrbMatching, RatioTestAndOneAPerB) {
   std::mt19937 rng(3);
   std::vector<OrbDescriptor> a, b;
   // a0 -> b0: a clear match.
@@ -32,16 +32,17 @@ TEST(OrbMatching, RatioTestBothWaysAndMutual) {
   b.push_back(random_descriptor(rng));
   b.push_back(flipped(b[1], 2));
   a.push_back(flipped(b[1], 1));
-  // a2 and a3 are both nearest to b3 and as close: each passes a's ratio test, b3's fails.
+  // a2 and a3 both choose b3: only the closer, a3, keeps it.
   b.push_back(random_descriptor(rng));
-  a.push_back(flipped(b[3], 3));
+  a.push_back(flipped(b[3], 5));
   a.push_back(flipped(b[3], 3));
   // a4 -> b4 but farther than max_hamming.
   b.push_back(random_descriptor(rng));
   a.push_back(flipped(b[4], 70));
   const auto matches = match_orb(a, b, OrbMatchOptions{});
-  ASSERT_EQ(matches.size(), 1u);
+  ASSERT_EQ(matches.size(), 2u);
   EXPECT_EQ(matches[0], std::make_pair(0, 0));
+  EXPECT_EQ(matches[1], std::make_pair(3, 3));
   // Subsets: indices refer to the full vectors.
   const auto restricted = match_orb(a, {0, 4}, b, {0, 4}, OrbMatchOptions{});
   ASSERT_EQ(restricted.size(), 1u);

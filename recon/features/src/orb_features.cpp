@@ -58,19 +58,6 @@ int hamming_distance(const OrbDescriptor& a, const OrbDescriptor& b) { return ha
 
 namespace {
 
-// Nearest and second-nearest distance (and the nearest's index) of one descriptor.
-struct Nearest {
-  int index = -1, d1 = 1 << 20, d2 = 1 << 20;
-  void offer(int candidate, int d) {
-    if (d < d1) {
-      d2 = d1, d1 = d, index = candidate;
-    } else if (d < d2) {
-      d2 = d;
-    }
-  }
-  bool passes(const OrbMatchOptions& o) const { return index >= 0 && d1 <= o.max_hamming && d1 < o.ratio * d2; }
-};
-
 }  // namespace
 
 // Debian builds for the x86-64 baseline, which has no POPCNT instruction: __builtin_popcountll
@@ -82,23 +69,33 @@ __attribute__((target_clones("popcnt", "default")))
 std::vector<std::pair<int, int>>
 match_orb(const std::vector<OrbDescriptor>& a, const std::vector<int>& subset_a, const std::vector<OrbDescriptor>& b,
           const std::vector<int>& subset_b, const OrbMatchOptions& options) {
-  // One pass over all distances fills the nearest neighbours in both directions.
-  std::vector<Nearest> of_a(subset_a.size()), of_b(subset_b.size());
+  // Each a's nearest b under the ratio test and the distance limit; each b then keeps the closest
+  // of the a's that chose it (the first on a tie).
+  std::vector<int> best_a_of_b(subset_b.size(), -1), best_distance_of_b(subset_b.size(), 1 << 20);
+  std::vector<std::pair<int, int>> candidates;  // (position in subset_a, position in subset_b)
+  std::vector<int> candidate_distance;
   for (std::size_t i = 0; i < subset_a.size(); ++i) {
     const OrbDescriptor& da = a[std::size_t(subset_a[i])];
+    int best = -1, d1 = 1 << 20, d2 = 1 << 20;
     for (std::size_t j = 0; j < subset_b.size(); ++j) {
       const int d = hamming(da, b[std::size_t(subset_b[j])]);
-      of_a[i].offer(int(j), d);
-      of_b[j].offer(int(i), d);
+      if (d < d1) {
+        d2 = d1, d1 = d, best = int(j);
+      } else if (d < d2) {
+        d2 = d;
+      }
+    }
+    if (best < 0 || d1 > options.max_hamming || !(d1 < options.ratio * d2)) continue;
+    candidates.push_back({int(i), best});
+    candidate_distance.push_back(d1);
+    if (d1 < best_distance_of_b[std::size_t(best)]) {
+      best_distance_of_b[std::size_t(best)] = d1;
+      best_a_of_b[std::size_t(best)] = int(i);
     }
   }
   std::vector<std::pair<int, int>> matches;
-  for (std::size_t i = 0; i < subset_a.size(); ++i) {
-    if (!of_a[i].passes(options)) continue;
-    const Nearest& back = of_b[std::size_t(of_a[i].index)];
-    if (!back.passes(options) || back.index != int(i)) continue;
-    matches.push_back({subset_a[i], subset_b[std::size_t(of_a[i].index)]});
-  }
+  for (const auto& [i, j] : candidates)
+    if (best_a_of_b[std::size_t(j)] == i) matches.push_back({subset_a[std::size_t(i)], subset_b[std::size_t(j)]});
   return matches;
 }
 

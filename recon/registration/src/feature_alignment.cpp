@@ -64,7 +64,7 @@ FeatureAlignment align_panorama_features(const PanoramaImages& source, const Pan
     result.failure = "too few features with depth";
     return result;
   }
-  // The shared ORB matching (orb_features.h): ratio test both ways, mutual.
+  // The shared ORB matching (orb_features.h): ratio test, one source feature per target feature.
   std::vector<Eigen::Vector3d> matched_from, matched_to;
   for (const auto& [i, j] : match_orb(from.descriptors, to.descriptors, {options.max_hamming, options.ratio_test})) {
     matched_from.push_back(from.points[std::size_t(i)]);

@@ -5,9 +5,11 @@
 // patch_px patch), on the grey image of an RGB or grey frame.
 // Matching: each descriptor of a with its nearest descriptor of b (Hamming), kept when
 //  - the distance is at most max_hamming,
-//  - Lowe's ratio test passes in both directions (nearest < ratio x second nearest, among b for the
-//    a, and among a for the b), and
-//  - the two are each other's nearest (mutual).
+//  - Lowe's ratio test passes (nearest < ratio x second nearest among b), and
+//  - no other a that chose the same b is closer to it (one a per b; the first on a tie).
+// (The registration's guess used the ratio test in both directions with a mutual check; on the
+// tracking that rule lost landmarks and moved cam2's extrinsics 0.5 -> 0.69 deg on a test scan, and
+// with it the guess needs no distance limit: features.max_hamming is 256 there.)
 // Matches are returned in increasing order of a's index; the result does not depend on threads.
 // The 3D-3D verification that follows is core's rigid_ransac (panoscan/core/rigid_ransac.h).
 #pragma once
@@ -43,7 +45,7 @@ void detect_orb(const ImageU8& image, const OrbDetectorOptions& options, std::ve
 
 struct OrbMatchOptions {
   int max_hamming = 64;  // of 256 bits
-  double ratio = 0.8;    // Lowe's ratio test, both directions
+  double ratio = 0.8;    // Lowe's ratio test
 };
 
 // Hamming distance of two descriptors.

@@ -23,8 +23,8 @@ struct PanoramaImages {
 
 struct FeatureAlignmentOptions {
   int max_features = 8000;           // ORB features per panorama
-  double ratio_test = 0.8;           // Lowe's ratio on Hamming distances (both directions, mutual)
-  int max_hamming = 64;              // features.max_hamming: descriptor distance limit (of 256 bits)
+  double ratio_test = 0.8;           // Lowe's ratio on Hamming distances (orb_features.h's rule)
+  int max_hamming = 256;             // descriptor distance limit (of 256 bits; 256 = none)
   double inlier_threshold_m = 0.05;  // RANSAC: 3D distance after the transform
   int ransac_iterations = 4000;
   int min_inliers = 25;    // below this the alignment is reported as failed
