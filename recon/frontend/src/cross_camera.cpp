@@ -141,6 +141,26 @@ double parabola_peak(double a, double b, double c) {
   return std::clamp(0.5 * (a - c) / denominator, -0.5, 0.5);
 }
 
+// A correlation peak the data can pin down in both directions: its four neighbours scored (for the
+// sub-pixel fit), and in each direction at least one shift two pixels away scored and lower by
+// `margin`. In a band a few rows high most shifts across it leave the other image; a peak whose
+// neighbourhood across the band cannot be scored says nothing about where across the band the
+// patch belongs (at the default rig such votes made a wrong calibration correction win).
+bool is_distinct_peak(const std::vector<double>& surface, int side, int best, double margin) {
+  const int bx = best % side, by = best / side;
+  if (bx < 2 || by < 2 || bx > side - 3 || by > side - 3) return false;
+  constexpr double kInvalid = -1.5;  // unscored shifts hold -2
+  if (std::min({surface[best - 1], surface[best + 1], surface[best - side], surface[best + side]}) < kInvalid)
+    return false;
+  const double peak = surface[best];
+  for (const int step : {1, side}) {  // along x, then along y
+    const double before = surface[best - 2 * step], after = surface[best + 2 * step];
+    if (before < kInvalid && after < kInvalid) return false;
+    if (std::max(before, after) > peak - margin) return false;
+  }
+  return true;
+}
+
 Eigen::Vector3d ray(const PinholeIntrinsics& in, double x, double y) { return in.backproject(x, y, 1.0).normalized(); }
 
 }  // namespace
@@ -285,6 +305,7 @@ Eigen::Matrix3d estimate_band_correction(const Relation& relation, const CameraC
   // instead lets shifts that put more patches inside b, and ramps (which correlate at any shift
   // along them), win.
   struct Vote {
+    int frame_a;                       // the frame of a that voted
     Eigen::Vector2d shift, predicted;  // sub-pixel shift; predicted position in b
   };
   std::vector<std::vector<Vote>> per_pair(frame_pairs.size());
@@ -308,18 +329,18 @@ Eigen::Matrix3d estimate_band_correction(const Relation& relation, const CameraC
           if (best < 0 || ncc > surface[best]) best = (dy + radius) * side + dx + radius;
         }
       const int bx = best % side, by = best / side;
-      if (surface[best] < options.band_min_ncc || bx == 0 || by == 0 || bx == side - 1 || by == side - 1) continue;
-      // Neighbours of the peak must be valid (for the sub-pixel fit), and the peak distinct.
+      if (surface[best] < options.band_min_ncc || !is_distinct_peak(surface, side, best, options.band_peak_margin))
+        continue;
+      // ... and distinct from every shift more than two pixels away.
       const double left = surface[best - 1], right = surface[best + 1];
       const double up = surface[best - side], down = surface[best + side];
-      if (std::min({left, right, up, down}) < -1.5) continue;
       double runner_up = -1.0;
       for (int i = 0; i < side * side; ++i)
         if (std::max(std::abs(i % side - bx), std::abs(i / side - by)) > 2) runner_up = std::max(runner_up, surface[i]);
       if (surface[best] - runner_up < options.band_peak_margin) continue;
       const Eigen::Vector2d shift(bx - radius + parabola_peak(left, surface[best], right),
                                   by - radius + parabola_peak(up, surface[best], down));
-      per_pair[k].push_back({shift, Eigen::Vector2d(anchor.centre_in_b.x, anchor.centre_in_b.y)});
+      per_pair[k].push_back({frame_pairs[k].first, shift, Eigen::Vector2d(anchor.centre_in_b.x, anchor.centre_in_b.y)});
     }
   });
   std::vector<Vote> votes;
@@ -387,9 +408,18 @@ Eigen::Matrix3d estimate_band_correction(const Relation& relation, const CameraC
     const long shared = std::count_if(other.begin(), other.end(), [&](int i) { return is_inlier[i] != 0; });
     if (shared <= 0.2 * double(other.size())) runner_up = int(other.size());
   }
-  log_debug(fmt::format("band cam{}-cam{}: {} votes, {} agree on a {:.2f}-deg correction, runner-up {}",
-                        relation.sensor_a, relation.sensor_b, votes.size(), inliers.size(),
-                        rad2deg(rotation_angle(hypotheses.front().rotation)), runner_up));
+  std::vector<int> frames_voting, frames_agreeing;
+  for (const Vote& v : votes) frames_voting.push_back(v.frame_a);
+  for (int i : inliers) frames_agreeing.push_back(votes[i].frame_a);
+  auto distinct = [](std::vector<int> f) {
+    std::sort(f.begin(), f.end());
+    return int(std::unique(f.begin(), f.end()) - f.begin());
+  };
+  log_debug(
+      fmt::format("band cam{}-cam{}: {} votes from {} frames, {} from {} frames agree on a {:.2f}-deg "
+                  "correction, runner-up {}",
+                  relation.sensor_a, relation.sensor_b, votes.size(), distinct(frames_voting), inliers.size(),
+                  distinct(frames_agreeing), rad2deg(rotation_angle(hypotheses.front().rotation)), runner_up));
   if (int(inliers.size()) < 2 * options.min_cross_inliers ||
       double(inliers.size()) < options.band_peak_ratio * runner_up)
     return Eigen::Matrix3d::Identity();
@@ -434,8 +464,8 @@ BandPairResult match_band_pair(const Relation& relation, const Rigid3d& b_from_a
     if (best < 0) continue;
     ++result.anchors;
     const int bx = best % side, by = best / side;
-    if (surface[best] < options.band_min_ncc || bx == 0 || by == 0 || bx == side - 1 || by == side - 1) continue;
-    if (std::min({surface[best - 1], surface[best + 1], surface[best - side], surface[best + side]}) < -1.5) continue;
+    if (surface[best] < options.band_min_ncc || !is_distinct_peak(surface, side, best, options.band_peak_margin))
+      continue;
     cell_used[cell] = 1;  // one aligned patch per cell: matches spread along the band
     ++result.aligned;
     const double dx = bx - r + parabola_peak(surface[best - 1], surface[best], surface[best + 1]);

@@ -51,7 +51,7 @@ struct FrontendOptions {
   int band_patch_long_px = 21;     // frontend.band_patch_long_px: patch length along the band
   int band_patch_short_px = 3;     // frontend.band_patch_short_px: and across it (the band: 4-8 px)
   double band_search_deg = 1.2;    // frontend.band_search_deg: calibration error the first search covers
-  int band_refine_px = 3;          // frontend.band_refine_px: per-pair search around the corrected prediction
+  int band_refine_px = 4;          // frontend.band_refine_px: per-pair search around the corrected prediction
   double band_min_ncc = 0.85;      // frontend.band_min_ncc: correlation floor of an aligned patch
   double band_min_contrast = 3.0;  // frontend.band_min_contrast: grey-level std of a usable patch
   double band_min_gradient = 1.5;  // frontend.band_min_gradient: grey levels / px in its weaker direction
@@ -59,7 +59,7 @@ struct FrontendOptions {
   double band_peak_margin = 0.05;  // frontend.band_peak_margin: a patch's peak correlation vs its best 3 px away
   double band_max_shift_spread_px = 1.5;  // frontend.band_max_shift_spread_px: from the pair's median shift
   double band_depth_slack_m = 0.02;  // frontend.band_depth_slack_m: beyond 3 sigma of the depth noise
-  int band_frames = 3;               // frontend.band_frames: frames of the other camera nearest in time
+  int band_frames = 5;               // frontend.band_frames: frames of the other camera nearest in time
   int band_calibration_pairs = 256;  // frontend.band_calibration_pairs: frames of a sampled for the first search
   int band_max_corners = 1500;       // corners kept per crop (strongest first)
   bool loop_closure = true;
