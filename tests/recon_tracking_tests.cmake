@@ -12,7 +12,7 @@ target_include_directories(recon_tracking_factors_test PRIVATE ${CMAKE_SOURCE_DI
 # Band alignment across cameras (the front end's internal cross_camera.h) on synthetic views with known truth.
 panoscan_add_test(recon_cross_camera_test
   SOURCES recon_cross_camera_test.cpp
-  DEPS panoscan_recon_frontend opencv_core
+  DEPS panoscan_recon_frontend
   LABELS recon)
 target_include_directories(recon_cross_camera_test PRIVATE ${CMAKE_SOURCE_DIR}/recon/frontend/src)
 # The shared ORB module: the matching rule and detection.

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
 
@@ -30,7 +31,7 @@ int search_radius_px(const ScanIndex& scan, const Relation& relation, const Fron
 
 // A corner of a with its zero-mean, unit-norm template and its patch warped into b's crop.
 struct Anchor {
-  cv::Point pixel;
+  Pixel pixel;
   float depth = 0;
   std::vector<float> templ;
   std::vector<cv::Point2f> warped;  // patch pixels in b's crop coordinates (at shift 0)
@@ -40,13 +41,13 @@ struct Anchor {
 
 // Template of the patch around `pixel` in a's crop; false if it leaves the crop, lacks depth, or
 // is flatter than band_min_contrast (a plain wall gives no alignment).
-bool make_template(const BandCrop& crop, cv::Point pixel, const PatchShape& shape, const FrontendOptions& o,
+bool make_template(const BandCrop& crop, Pixel pixel, const PatchShape& shape, const FrontendOptions& o,
                    Anchor* anchor) {
   const int x0 = pixel.x - crop.roi.x, y0 = pixel.y - crop.roi.y;
-  if (x0 - shape.half_x < 0 || y0 - shape.half_y < 0 || x0 + shape.half_x >= crop.gray.cols ||
-      y0 + shape.half_y >= crop.gray.rows)
+  if (x0 - shape.half_x < 0 || y0 - shape.half_y < 0 || x0 + shape.half_x >= crop.gray.width ||
+      y0 + shape.half_y >= crop.gray.height)
     return false;
-  const float z = crop.depth.at<float>(y0, x0);
+  const float z = crop.depth.at(x0, y0);
   if (!(z >= o.min_depth_m && z <= o.max_depth_m)) return false;
   anchor->pixel = pixel;
   anchor->depth = z;
@@ -54,7 +55,7 @@ bool make_template(const BandCrop& crop, cv::Point pixel, const PatchShape& shap
   double sum = 0;
   for (int j = -shape.half_y; j <= shape.half_y; ++j)
     for (int i = -shape.half_x; i <= shape.half_x; ++i) {
-      const float g = crop.gray.at<float>(y0 + j, x0 + i);
+      const float g = crop.gray.at(x0 + i, y0 + j);
       anchor->templ.push_back(g);
       sum += g;
     }
@@ -113,17 +114,17 @@ bool warp_anchor(const Relation& relation, const Rigid3d& b_from_a, const ScanIn
 
 // Normalised cross-correlation of the anchor's template with b's crop sampled (bilinearly) at the
 // warped patch shifted by (dx, dy); false if the patch leaves the crop.
-bool correlate(const Anchor& anchor, const cv::Mat& gray_b, float dx, float dy, double* ncc) {
+bool correlate(const Anchor& anchor, const ImageF32& gray_b, float dx, float dy, double* ncc) {
   const std::size_t n = anchor.templ.size();
   double sum = 0, squares = 0, cross = 0;
-  const float max_x = float(gray_b.cols - 1) - 1e-3f, max_y = float(gray_b.rows - 1) - 1e-3f;
+  const float max_x = float(gray_b.width - 1) - 1e-3f, max_y = float(gray_b.height - 1) - 1e-3f;
   for (std::size_t k = 0; k < n; ++k) {
     const float x = anchor.warped[k].x + dx, y = anchor.warped[k].y + dy;
     if (!(x >= 0.f && y >= 0.f && x <= max_x && y <= max_y)) return false;
     const int ix = int(x), iy = int(y);
     const float fx = x - ix, fy = y - iy;
-    const float* row0 = gray_b.ptr<float>(iy) + ix;
-    const float* row1 = gray_b.ptr<float>(iy + 1) + ix;
+    const float* row0 = gray_b.row(iy) + ix;
+    const float* row1 = gray_b.row(iy + 1) + ix;
     const float g = (1 - fy) * ((1 - fx) * row0[0] + fx * row0[1]) + fy * ((1 - fx) * row1[0] + fx * row1[1]);
     sum += g;
     squares += double(g) * g;
@@ -203,7 +204,7 @@ std::vector<Relation> overlapping_relations(const ScanIndex& scan, const std::ve
       auto widened = [margin](int x0, int y0, int x1, int y1, const PinholeIntrinsics& in) {
         const int left = std::max(0, x0 - margin), top = std::max(0, y0 - margin);
         const int right = std::min(in.width - 1, x1 + margin), bottom = std::min(in.height - 1, y1 + margin);
-        return cv::Rect(left, top, right - left + 1, bottom - top + 1);
+        return PixelRect{left, top, right - left + 1, bottom - top + 1};
       };
       relation.roi_a = widened(ax0, ay0, ax1, ay1, in_a);
       relation.roi_b = widened(bx0, by0, bx1, by1, in_b);
@@ -213,21 +214,26 @@ std::vector<Relation> overlapping_relations(const ScanIndex& scan, const std::ve
   return relations;
 }
 
-BandCrop make_band_crop(const RgbdFrame& frame, const cv::Rect& roi, bool with_corners,
+BandCrop make_band_crop(const RgbdFrame& frame, const PixelRect& roi, bool with_corners,
                         const FrontendOptions& options) {
   BandCrop crop;
   crop.roi = roi;
+  const cv::Rect rect(roi.x, roi.y, roi.width, roi.height);
   const cv::Mat rgb(frame.rgb.height, frame.rgb.width, CV_8UC3, const_cast<std::uint8_t*>(frame.rgb.data.data()));
   const cv::Mat depth(frame.depth.height, frame.depth.width, CV_32F, const_cast<float*>(frame.depth.data.data()));
-  cv::Mat gray;
-  cv::cvtColor(rgb(roi), gray, cv::COLOR_RGB2GRAY);
-  gray.convertTo(crop.gray, CV_32F);
-  crop.depth = depth(roi).clone();
+  crop.gray = ImageF32(roi.width, roi.height);
+  crop.depth = ImageF32(roi.width, roi.height);
+  cv::Mat grey_u8;
+  cv::cvtColor(rgb(rect), grey_u8, cv::COLOR_RGB2GRAY);
+  cv::Mat gray(roi.height, roi.width, CV_32F, crop.gray.data.data());  // writes into crop.gray
+  grey_u8.convertTo(gray, CV_32F);
+  cv::Mat depth_crop(roi.height, roi.width, CV_32F, crop.depth.data.data());  // writes into crop.depth
+  depth(rect).copyTo(depth_crop);
   if (!with_corners) return crop;
   // Corners: 3x3 local maxima of the minimum eigenvalue of the structure tensor, strongest first.
   cv::Mat eigen;
-  cv::cornerMinEigenVal(crop.gray, eigen, 3, 3);
-  std::vector<std::pair<float, cv::Point>> maxima;
+  cv::cornerMinEigenVal(gray, eigen, 3, 3);
+  std::vector<std::pair<float, Pixel>> maxima;
   for (int y = 1; y + 1 < eigen.rows; ++y)
     for (int x = 1; x + 1 < eigen.cols; ++x) {
       const float e = eigen.at<float>(y, x);
@@ -239,7 +245,7 @@ BandCrop make_band_crop(const RgbdFrame& frame, const cv::Rect& roi, bool with_c
             is_max = false;
             break;
           }
-      if (is_max) maxima.push_back({e, cv::Point(x + roi.x, y + roi.y)});
+      if (is_max) maxima.push_back({e, Pixel{x + roi.x, y + roi.y}});
     }
   std::stable_sort(maxima.begin(), maxima.end(), [](const auto& l, const auto& r) { return l.first > r.first; });
   const std::size_t keep = std::min<std::size_t>(maxima.size(), std::size_t(options.band_max_corners));
@@ -318,7 +324,7 @@ Eigen::Matrix3d estimate_band_correction(const Relation& relation, const CameraC
     const BandCrop& crop_b = *crops_b[k];
     Anchor anchor;
     std::vector<double> surface(std::size_t(side) * side);
-    for (const cv::Point& corner : crop_a.corners) {
+    for (const Pixel& corner : crop_a.corners) {
       if (!make_template(crop_a, corner, shape, options, &anchor)) continue;
       if (!warp_anchor(relation, b_from_a, scan, crop_b, shape, &anchor)) continue;
       int best = -1;
@@ -445,7 +451,7 @@ BandPairResult match_band_pair(const Relation& relation, const Rigid3d& b_from_a
   };
   std::vector<Aligned> aligned;
   Anchor anchor;
-  for (const cv::Point& corner : crop_a.corners) {
+  for (const Pixel& corner : crop_a.corners) {
     const int cell = (relation.along_x ? corner.x : corner.y) / cell_size;
     if (cell_used[cell]) continue;
     if (!make_template(crop_a, corner, shape, options, &anchor)) continue;
@@ -484,8 +490,8 @@ BandPairResult match_band_pair(const Relation& relation, const Rigid3d& b_from_a
     if (std::hypot(a.dx - median_x, a.dy - median_y) > options.band_max_shift_spread_px) continue;
     const double x = a.anchor.centre_in_b.x + a.dx, y = a.anchor.centre_in_b.y + a.dy;
     const int ix = int(std::lround(x)) - crop_b.roi.x, iy = int(std::lround(y)) - crop_b.roi.y;
-    if (ix < 0 || iy < 0 || ix >= crop_b.depth.cols || iy >= crop_b.depth.rows) continue;
-    const float z_b = crop_b.depth.at<float>(iy, ix);
+    if (ix < 0 || iy < 0 || ix >= crop_b.depth.width || iy >= crop_b.depth.height) continue;
+    const float z_b = crop_b.depth.at(ix, iy);
     if (!(z_b >= options.min_depth_m && z_b <= options.max_depth_m)) continue;
     // The depth b measures there must be the point's (an occluding edge or a wrong peak is not).
     const double sigma_a = options.depth_noise_coefficient * a.anchor.depth * a.anchor.depth;

@@ -24,19 +24,25 @@
 
 #include <vector>
 
-#include <opencv2/core.hpp>
-
 #include "panoscan/core/geometry.h"
+#include "panoscan/core/image.h"
 #include "panoscan/core/scan.h"
 #include "panoscan/recon/frontend.h"
 
 namespace panoscan::cross_camera {
 
+struct Pixel {
+  int x = 0, y = 0;
+};
+struct PixelRect {
+  int x = 0, y = 0, width = 0, height = 0;
+};
+
 // Two cameras whose views overlap (a < b), with the regions of each image that see into the other
 // (widened by the search margin). The band runs along x when the region of a is wider than high.
 struct Relation {
   int sensor_a = 0, sensor_b = 0;
-  cv::Rect roi_a, roi_b;
+  PixelRect roi_a, roi_b;
   bool along_x = true;
   Rigid3d b_from_a_calibrated = Rigid3d::Identity();
 };
@@ -46,14 +52,15 @@ struct Relation {
 std::vector<Relation> overlapping_relations(const ScanIndex& scan, const std::vector<char>& used,
                                             const FrontendOptions& options);
 
-// A frame's view of one relation: grey (CV_32F, 0-255) and depth (CV_32F, metres) inside the
+// A frame's view of one relation: grey (0-255) and depth (metres) inside the
 // relation's region, and its corners (local maxima of the minimum eigenvalue, strongest first).
 struct BandCrop {
-  cv::Rect roi;
-  cv::Mat gray, depth;
-  std::vector<cv::Point> corners;  // in full-image pixels; only for the relation's camera a
+  PixelRect roi;
+  ImageF32 gray, depth;
+  std::vector<Pixel> corners;  // in full-image pixels; only for the relation's camera a
 };
-BandCrop make_band_crop(const RgbdFrame& frame, const cv::Rect& roi, bool with_corners, const FrontendOptions& options);
+BandCrop make_band_crop(const RgbdFrame& frame, const PixelRect& roi, bool with_corners,
+                        const FrontendOptions& options);
 
 // Poses of each camera's frames along chains of verified same-camera transforms (a frame without a
 // pair to an earlier frame of its chain starts a new chain).
