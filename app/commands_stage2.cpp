@@ -34,14 +34,6 @@ Config load_stage2_config(const std::string& file, const std::vector<std::string
   return config;
 }
 
-// A pose file, or a `recon register` output (its target_from_source).
-Rigid3d read_initial_pose(const std::string& file) {
-  const nlohmann::json j = read_json_file(file);
-  if (j.is_object() && j.contains("target_from_source"))
-    return pose_from_json(j["target_from_source"], file, "target_from_source");
-  return pose_from_json(j, file, "");
-}
-
 // One `recon register` output as a pose-graph edge between two of `panoramas` (by absolute path; a
 // folder moved since is found by name when that name is unique among them).
 PoseGraphEdge read_registration_edge(const std::string& file, const std::vector<std::string>& panoramas) {
@@ -82,7 +74,7 @@ void run_recon_register(const ReconRegisterArguments& a) {
   config.check_all_used();
   if (fs::exists(a.out) && !a.overwrite) throw make_error(a.out, "", "already exists (use --overwrite to replace it)");
   std::optional<Rigid3d> initial;
-  if (!a.initial.empty()) initial = read_initial_pose(a.initial);
+  if (!a.initial.empty()) initial = read_pose_file(a.initial);
   const Panorama source = read_panorama(a.source);
   const Panorama target = read_panorama(a.target);
 

@@ -6,6 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir="${1:-build}"
 
+# clang-14 + libfuzzer-14-dev: the fuzz build (scripts/fuzz.sh); the tests replay the corpora with g++.
 # libopenblas0-pthread: the BLAS/LAPACK alternative for CHOLMOD in the tracking solve (2x faster than
 # ATLAS, which libceres-dev pulls in; see CMakeLists.txt).
 packages=(
@@ -16,6 +17,7 @@ packages=(
   libopenblas0-pthread
   libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
   python3-matplotlib python3-numpy
+  clang-14 libfuzzer-14-dev
 )
 
 missing=()

@@ -99,6 +99,28 @@ TEST_F(EvalFiles, CloudAgainstMeshFromFiles) {
   EXPECT_EQ(json["coloured_ply"]["range_m"][1], 0.5);
 }
 
+TEST_F(EvalFiles, WarnsWhenMostPointsAreFarFromTheMesh) {
+  // Points on the box's floor, then the same points 0.4 m off (a cloud in another frame).
+  write_ply_mesh(dir / "gt.ply", box_mesh());
+  PointCloud on_surface, shifted;
+  for (int i = 0; i < 20; ++i) {
+    on_surface.positions.emplace_back(0.1 + 0.09 * i, 0.5, 0.001 * (i % 3));
+    shifted.positions.push_back(on_surface.positions.back() + Eigen::Vector3d(0.0, 0.0, 0.4));
+  }
+  write_ply_point_cloud(dir / "near.ply", on_surface);
+  write_ply_point_cloud(dir / "far.ply", shifted);
+  CloudEvalOptions options;
+  options.metrics.completeness.enabled = false;
+  const CloudEvalReport near = evaluate_cloud_files(dir / "gt.ply", dir / "near.ply", options);
+  EXPECT_TRUE(near.warnings.empty());
+  const CloudEvalReport far = evaluate_cloud_files(dir / "gt.ply", dir / "far.ply", options);
+  ASSERT_EQ(far.warnings.size(), 1u);
+  EXPECT_THAT(far.warnings[0], HasSubstr((dir / "far.ply").string()));
+  EXPECT_THAT(far.warnings[0], HasSubstr("mesh's frame"));
+  EXPECT_THAT(cloud_report_to_text(far), HasSubstr("warning: "));
+  EXPECT_EQ(nlohmann::json::parse(cloud_report_to_json(far))["warnings"].size(), 1u);
+}
+
 TEST_F(EvalFiles, ViewpointsFromTrajectories) {
   write_ply_mesh(dir / "gt.ply", box_mesh());
   PointCloud cloud;

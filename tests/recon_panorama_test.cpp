@@ -1,16 +1,19 @@
 // Panorama construction (paper §4.2) on small simulated scans with ground-truth poses: warping
 // against the exact ground-truth panorama, the depth solvers of Eq. 5-7 on flat walls, the
 // variance map, determinism, files, and bad input.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 #include <iostream>
 #include <map>
 #include <numeric>
 #include <sstream>
 #include <chrono>
 
+#include "panoscan/core/image_io.h"
 #include "panoscan/core/timer.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/random.h"
@@ -618,6 +621,16 @@ TEST(PanoramaBadInput, EmptyPanorama) {
   options.warp.height = 32;
   options.warp.min_depth_m = 50.0;
   options.warp.max_depth_m = 60.0;
+  // No frame pixel in range: refused by default, naming the scan and the setting.
+  try {
+    build_panorama(s.index, s.truth, options);
+    ADD_FAILURE() << "a scan without usable depth was not refused";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr(s.index.root.string()));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("panorama.min_valid_depth_share"));
+  }
+  // Asked for explicitly (share 0), the empty panorama is written and read back.
+  options.warp.min_valid_depth_share = 0.0;
   const PanoramaResult r = build_panorama(s.index, s.truth, options);
   EXPECT_EQ(r.measurements, 0u);
   EXPECT_TRUE(r.panorama.to_point_cloud().empty());
@@ -625,6 +638,35 @@ TEST(PanoramaBadInput, EmptyPanorama) {
   const auto dir = scratch() / "empty-out";
   write_panorama(dir, r.panorama, false);
   EXPECT_EQ(read_panorama(dir).pano.height, 32);
+}
+
+TEST(PanoramaBadInput, ReadRefusesValuesNoConsumerCouldUse) {
+  const SimulatedScan& s = office_noisy();
+  PanoramaOptions options;
+  options.warp.height = 32;
+  const Panorama panorama = build_panorama(s.index, s.truth, options).panorama;
+  const auto dir = scratch() / "bad-values";
+  write_panorama(dir, panorama, true);
+  ASSERT_EQ(read_panorama(dir).pano.height, 32);
+  // NaN and negative depth, a negative variance: each an Error naming the EXR file.
+  for (const auto& [file, channel, value] : {std::tuple<std::string, std::string, float>{"depth.exr", "Z", NAN},
+                                             {"depth.exr", "Z", -1.f},
+                                             {"variance.exr", "V", -1e-6f}}) {
+    write_panorama(dir, panorama, true);
+    ImageF32 image = read_exr(dir / file, {channel});
+    image.at(5, 5) = value;
+    write_exr(dir / file, image, {channel});
+    try {
+      read_panorama(dir);
+      ADD_FAILURE() << file << " with " << value << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_THAT(e.what(), ::testing::HasSubstr((dir / file).string()));
+    }
+  }
+  // An EXR of another size than panorama.json says: refused before its pixels are read.
+  write_panorama(dir, panorama, true);
+  write_exr(dir / "count.exr", ImageF32(8, 4, 1, 1.f), {"N"});
+  EXPECT_THROW(read_panorama(dir), Error);
 }
 
 TEST(PanoramaOptions, RejectOutOfRange) {

@@ -1,6 +1,7 @@
 #include "panoscan/core/image_io.h"
 
 #include <cstring>
+#include <map>
 #include <fstream>
 
 #include <OpenEXR/ImfChannelList.h>
@@ -142,14 +143,122 @@ void write_exr(const fs::path& path, const ImageF32& image, const std::vector<st
   });
 }
 
-ImageF32 read_exr(const fs::path& path, const std::vector<std::string>& channel_names) {
+namespace {
+
+// Walks the attributes of an EXR file's header (OpenEXR file layout: magic 20000630, version word,
+// then name\0 type\0 int32 size and the value, until an empty name) before OpenEXR sees it, and
+// refuses what OpenEXR 3.1 would turn into a huge allocation (found by fuzz/panorama_fuzz.cpp): an
+// attribute size beyond the file; a typed value whose layout disagrees with its declared size
+// (OpenEXR parses those by their layout, so a mismatch shifts every later field, sizes included);
+// a preview whose width x height disagrees with its size; an ID manifest (compressed, with its own
+// declared sizes; PanoScan never writes one).
+void check_exr_header(const fs::path& path) {
+  const std::string file = path.string();
+  std::error_code ec;
+  const std::uintmax_t file_size = fs::file_size(path, ec);
+  if (ec) throw make_error(file, "", "cannot read the size of the EXR file");
+  std::ifstream in(path, std::ios::binary);
+  auto u32_at = [](const unsigned char* b) {
+    return std::uint32_t(b[0]) | std::uint32_t(b[1]) << 8 | std::uint32_t(b[2]) << 16 | std::uint32_t(b[3]) << 24;
+  };
+  auto read_u32 = [&](const std::string& field) {
+    unsigned char b[4];
+    if (!in.read(reinterpret_cast<char*>(b), 4)) throw make_error(file, field, "EXR header truncated");
+    return u32_at(b);
+  };
+  std::size_t max_name = 31;  // OpenEXR's limit for names and type names, 255 with the long-names flag
+  auto read_name = [&](const std::string& field) {
+    std::string name;
+    char c = 0;
+    while (in.get(c) && c != '\0') {
+      name.push_back(c);
+      if (name.size() > max_name) throw make_error(file, field, "EXR header name too long");
+    }
+    if (!in) throw make_error(file, field, "EXR header truncated");
+    return name;
+  };
+  if (read_u32("magic") != 20000630u) throw make_error(file, "magic", "not an OpenEXR file");
+  const std::uint32_t version = read_u32("version");
+  if (version & 0x1000u) throw make_error(file, "version", "multi-part EXR files are not supported");
+  if (version & 0x400u) max_name = 255;
+  // Sizes of OpenEXR's fixed-layout attribute types.
+  static const std::map<std::string, std::uint32_t> fixed = {
+      {"box2i", 16},         {"box2f", 16},  {"chromaticities", 32}, {"compression", 1}, {"double", 8},
+      {"envmap", 1},         {"float", 4},   {"int", 4},             {"keycode", 28},    {"lineOrder", 1},
+      {"m33f", 36},          {"m44f", 64},   {"m33d", 72},           {"m44d", 128},      {"rational", 8},
+      {"tiledesc", 9},       {"timecode", 8}, {"v2i", 8},            {"v2f", 8},         {"v2d", 16},
+      {"v3i", 12},           {"v3f", 12},    {"v3d", 24},            {"deepImageState", 1}};
+  for (int attribute = 0;; ++attribute) {
+    const std::string name = read_name("header");
+    if (name.empty()) return;
+    if (attribute > 1000) throw make_error(file, "header", "more than 1000 attributes");
+    const std::string type = read_name(name);
+    const std::uint32_t size = read_u32(name);
+    const std::uintmax_t position = std::uintmax_t(in.tellg());
+    if (size > 0x7fffffffu || position + size > file_size)
+      throw make_error(file, name, "attribute size " + std::to_string(size) + " exceeds the file");
+    std::vector<unsigned char> value(size);
+    if (size > 0 && !in.read(reinterpret_cast<char*>(value.data()), size))
+      throw make_error(file, name, "EXR header truncated");
+    const auto layout_error = [&](const std::string& what) {
+      return make_error(file, name, "attribute of type " + type + " with size " + std::to_string(size) + ": " + what);
+    };
+    if (const auto it = fixed.find(type); it != fixed.end()) {
+      if (size != it->second) throw layout_error("expected size " + std::to_string(it->second));
+    } else if (type == "chlist") {
+      // Entries name\0 + 16 bytes, then an empty name, exactly filling the value.
+      std::size_t at = 0;
+      while (true) {
+        std::size_t end = at;
+        while (end < size && value[end] != 0) ++end;
+        if (end >= size) throw layout_error("channel list not terminated");
+        if (end == at) break;
+        if (end - at > max_name) throw layout_error("channel name too long");
+        at = end + 1 + 16;
+        if (at > size) throw layout_error("channel entry truncated");
+      }
+      if (at + 1 != size) throw layout_error("channel list does not fill its size");
+    } else if (type == "preview") {
+      if (size < 8) throw layout_error("preview header truncated");
+      const std::uint64_t pixels = std::uint64_t(u32_at(value.data())) * u32_at(value.data() + 4);
+      if (8 + 4 * pixels != size) throw layout_error("preview size disagrees with its width x height");
+    } else if (type == "stringvector") {
+      for (std::size_t at = 0; at < size;) {
+        if (at + 4 > size) throw layout_error("string length truncated");
+        const std::uint32_t length = u32_at(value.data() + at);
+        if (length > size - at - 4) throw layout_error("string exceeds the attribute");
+        at += 4 + length;
+      }
+    } else if (type == "idmanifest") {
+      throw layout_error("ID manifests are not supported");
+    }
+  }
+}
+
+}  // namespace
+
+ImageF32 read_exr(const fs::path& path, const std::vector<std::string>& channel_names, int expected_width,
+                  int expected_height) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw make_error(path.string(), "", "EXR file not found");
+  check_exr_header(path);
   try {
     Imf::InputFile file(path.string().c_str());
     const Imath::Box2i window = file.header().dataWindow();
-    const int width = window.max.x - window.min.x + 1;
-    const int height = window.max.y - window.min.y + 1;
+    // The header's size is checked before anything is allocated: a corrupt or hostile header must
+    // give an Error, not an allocation of gigabytes (found by fuzz/panorama_fuzz.cpp).
+    const std::int64_t width64 = std::int64_t(window.max.x) - window.min.x + 1;
+    const std::int64_t height64 = std::int64_t(window.max.y) - window.min.y + 1;
+    if (width64 < 1 || height64 < 1 || width64 > kMaxExrSide || height64 > kMaxExrSide ||
+        width64 * height64 > kMaxExrPixels)
+      throw make_error(path.string(), "dataWindow",
+                       "size " + std::to_string(width64) + "x" + std::to_string(height64) + " out of range (at most " +
+                           std::to_string(kMaxExrSide) + " per side and " + std::to_string(kMaxExrPixels) + " pixels)");
+    const int width = int(width64), height = int(height64);
+    if ((expected_width > 0 && width != expected_width) || (expected_height > 0 && height != expected_height))
+      throw make_error(path.string(), "dataWindow",
+                       "size " + std::to_string(width) + "x" + std::to_string(height) + ", expected " +
+                           std::to_string(expected_width) + "x" + std::to_string(expected_height));
     ImageF32 image(width, height, static_cast<int>(channel_names.size()));
     Imf::FrameBuffer frame_buffer;
     const std::size_t pixel_stride = sizeof(float) * image.channels;

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "panoscan/core/error.h"
+#include "panoscan/core/json_file.h"
 
 namespace panoscan {
 
@@ -57,6 +58,14 @@ Rigid3d pose_from_json(const nlohmann::json& object, const std::string& file, co
     throw make_error(file, field + ".rotation_quaternion_xyzw",
                      "quaternion is not unit length (norm " + std::to_string(rotation.norm()) + ")");
   return make_rigid(rotation.normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
+}
+
+Rigid3d read_pose_file(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  const nlohmann::json j = read_json_file(path, "expected a pose or an output of recon register");
+  if (j.is_object() && j.contains("target_from_source"))
+    return pose_from_json(j["target_from_source"], file, "target_from_source");
+  return pose_from_json(j, file, "");
 }
 
 }  // namespace panoscan

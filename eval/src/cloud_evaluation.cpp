@@ -3,6 +3,7 @@
 #include "panoscan/core/timer.h"
 #include "panoscan/eval/cloud_evaluation.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -64,6 +65,7 @@ CloudEvalOptions cloud_eval_options_from_config(Config& config) {
   CloudMetricsOptions& m = options.metrics;
   m.thresholds_m = config.get_doubles("thresholds_m", m.thresholds_m, 0);
   m.outlier_cutoff_m = config.get_double("outlier_cutoff_m", m.outlier_cutoff_m, 0.0, 1e3);
+  options.min_share_near_mesh = config.get_double("min_share_near_mesh", options.min_share_near_mesh, 0.0, 1.0);
   CompletenessOptions& c = m.completeness;
   c.enabled = config.get_bool("completeness.enabled", c.enabled);
   c.samples_per_m2 = config.get_double("completeness.samples_per_m2", c.samples_per_m2, 1.0, 1e8);
@@ -144,6 +146,19 @@ CloudEvalReport evaluate_cloud_files(const std::filesystem::path& mesh_path, con
       log_info(fmt::format("wrote {} (colours: {})", options.coloured_ply.string(), report.colour_legend.describe()));
     }
   });
+  // Most points far from the mesh: a reconstruction this bad is far likelier to be in another frame
+  // than the mesh (or of another scene) than to be the method's real accuracy.
+  if (!report.metrics.scores.empty()) {
+    const ThresholdScore& widest = *std::max_element(
+        report.metrics.scores.begin(), report.metrics.scores.end(),
+        [](const ThresholdScore& a, const ThresholdScore& b) { return a.threshold_m < b.threshold_m; });
+    if (widest.accuracy < options.min_share_near_mesh) {
+      report.warnings.push_back(fmt::format(
+          "{}: only {:.1f}% of the points lie within {:.0f} mm of the mesh (median distance {:.0f} mm): is the cloud "
+          "in the mesh's frame? (tracked poses need --align-to-ground-truth; a wrong registration also does this)",
+          cloud_name, 100.0 * widest.accuracy, 1e3 * widest.threshold_m, 1e3 * report.metrics.accuracy_m.median));
+    }
+  }
   report.seconds_total = seconds_since(start);
   return report;
 }
@@ -178,6 +193,7 @@ std::string cloud_report_to_text(const CloudEvalReport& r) {
     out += fmt::format("error-coloured cloud: {} ({})\n", r.options.coloured_ply.string(), r.colour_legend.describe());
   out += fmt::format("time: BVH {:.2f} s, accuracy {:.2f} s, completeness {:.2f} s, total {:.2f} s\n", r.seconds_bvh,
                      m.seconds_accuracy, m.seconds_completeness, r.seconds_total);
+  for (const std::string& warning : r.warnings) out += "warning: " + warning + "\n";
   return out;
 }
 
@@ -191,6 +207,7 @@ std::string cloud_report_to_json(const CloudEvalReport& r) {
 
   nlohmann::json j;
   j["kind"] = "cloud_evaluation";
+  j["warnings"] = r.warnings;
   j["panoscan_version"] = project_version();
   j["source_revision"] = source_revision();
   j["inputs"] = {{"mesh", r.mesh_path.string()},

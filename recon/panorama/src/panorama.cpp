@@ -25,6 +25,8 @@ PanoramaOptions panorama_options_from_config(Config& config) {
   o.warp.min_depth_m = config.get_double("panorama.min_depth_m", o.warp.min_depth_m, 0.0, 100.0);
   o.warp.max_depth_m = config.get_double("panorama.max_depth_m", o.warp.max_depth_m, 0.0, 100.0);
   o.warp.frame_stride = config.get_int("panorama.frame_stride", o.warp.frame_stride, 1, 100000);
+  o.warp.min_valid_depth_share =
+      config.get_double("panorama.min_valid_depth_share", o.warp.min_valid_depth_share, 0.0, 1.0);
   o.fusion.method = depth_fusion_method_from_string(
       config.get_string("panorama.method", to_string(o.fusion.method),
                         {"ave", "average", "tv", "tv-l1", "tv-radial", "tsa", "tsa-l1", "tp", "tp-l1"}),

@@ -166,18 +166,28 @@ void write_panorama(const fs::path& dir, const Panorama& panorama, bool overwrit
 Panorama read_panorama(const fs::path& dir) {
   const fs::path json_path = dir / "panorama.json";
   const nlohmann::json j = read_json_file(json_path, "not a panorama folder?");
-  if (j.value("format", "") != kPanoramaFormat)
+  if (!j.is_object()) throw make_error(json_path.string(), "", "expected a JSON object");
+  if (!j.contains("format") || j["format"] != kPanoramaFormat)
     throw make_error(json_path.string(), "format", std::string("expected \"") + kPanoramaFormat + "\"");
-  if (j.value("version", 0) != kPanoramaVersion)
+  if (!j.contains("version") || !j["version"].is_number_integer() || j["version"] != kPanoramaVersion)
     throw make_error(json_path.string(), "version", "expected " + std::to_string(kPanoramaVersion));
   Panorama p;
+  // The bound of panorama.height: larger values would overflow the width (2H) and the pixel count.
+  if (!j.contains("height") || !j["height"].is_number_integer() || j["height"].get<std::int64_t>() < 1 ||
+      j["height"].get<std::int64_t>() > 16384)
+    throw make_error(json_path.string(), "height", "expected an integer in [1, 16384]");
+  p.pano.height = j["height"].get<int>();
+  std::string field = "method";
   try {
-    p.pano.height = j.at("height").get<int>();
     p.method = j.value("method", "");
+    field = "lambda";
     p.lambda = j.value("lambda", 0.0);
+    field = "energy";
     for (const auto& e : j.value("energy", nlohmann::json::array())) {
       EnergyRecord r;
-      r.iteration = e.at("iteration").get<int>();
+      if (!e.is_object() || !e.contains("iteration") || !e["iteration"].is_number_integer())
+        throw make_error(json_path.string(), "energy", "expected objects with an integer \"iteration\"");
+      r.iteration = int(std::clamp<std::int64_t>(e["iteration"].get<std::int64_t>(), 0, 1 << 30));
       r.smoothed = e.at("smoothed").get<double>();
       r.data = e.at("data").get<double>();
       r.smoothness = e.at("smoothness").get<double>();
@@ -186,18 +196,36 @@ Panorama read_panorama(const fs::path& dir) {
       p.energy.push_back(r);
     }
   } catch (const nlohmann::json::exception& e) {
-    throw make_error(json_path.string(), "height", e.what());
+    throw make_error(json_path.string(), field, e.what());
   }
-  if (p.pano.height < 1) throw make_error(json_path.string(), "height", "must be >= 1");
   if (!j.contains("world_from_pano")) throw make_error(json_path.string(), "world_from_pano", "missing field");
   p.world_from_pano = pose_from_json(j["world_from_pano"], json_path.string(), "world_from_pano");
-  p.colour = read_exr(dir / "colour.exr", {"R", "G", "B"});
-  p.depth = read_exr(dir / "depth.exr", {"Z"});
-  p.variance = read_exr(dir / "variance.exr", {"V"});
-  p.count = read_exr(dir / "count.exr", {"N"});
+  const int width = p.pano.width(), height = p.pano.height;
+  p.colour = read_exr(dir / "colour.exr", {"R", "G", "B"}, width, height);
+  p.depth = read_exr(dir / "depth.exr", {"Z"}, width, height);
+  p.variance = read_exr(dir / "variance.exr", {"V"}, width, height);
+  p.count = read_exr(dir / "count.exr", {"N"}, width, height);
   for (const auto* image : {&p.colour, &p.depth, &p.variance, &p.count})
     if (image->width != p.pano.width() || image->height != p.pano.height)
       throw make_error(dir.string(), "size", "an EXR does not match height " + std::to_string(p.pano.height));
+  // Values every consumer relies on (registration, integration, eval): finite, and depth, variance
+  // and count not negative; a pixel with depth must have a measurement count.
+  auto check_values = [&](const ImageF32& image, const char* name, bool non_negative) {
+    for (std::size_t i = 0; i < image.data.size(); ++i) {
+      const float value = image.data[i];
+      if (!std::isfinite(value) || (non_negative && value < 0.f))
+        throw make_error((dir / name).string(), "pixel " + std::to_string(i / std::size_t(image.channels)),
+                         "value " + std::to_string(value) + (non_negative ? ": expected finite and >= 0" : ": expected finite"));
+    }
+  };
+  check_values(p.colour, "colour.exr", false);
+  check_values(p.depth, "depth.exr", true);
+  check_values(p.variance, "variance.exr", true);
+  check_values(p.count, "count.exr", true);
+  for (std::size_t i = 0; i < p.depth.data.size(); ++i)
+    if (p.depth.data[i] > 0.f && !(p.count.data[i] > 0.f))
+      throw make_error((dir / "count.exr").string(), "pixel " + std::to_string(i),
+                       "a pixel with depth has no measurement count");
   // The flags as written (flags.png, 255 = flagged); left clear if the PNG has another size.
   p.flagged = ImageU8(p.pano.width(), p.pano.height, 1, 0);
   const ImageU8 flags = read_rgb(dir / "flags.png");

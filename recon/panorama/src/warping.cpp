@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cmath>
 
+#include <fmt/format.h>
 #include <tbb/parallel_for.h>
 
 #include "panoscan/core/error.h"
@@ -137,6 +138,15 @@ std::size_t warp_frame(const RgbdFrame& frame, const PinholeIntrinsics& intrinsi
   return pole_skips;
 }
 
+// The depth pixels warp_frame uses (the same test as its vertex loop).
+std::size_t count_valid_depth(const ImageF32& depth, const WarpOptions& options) {
+  std::size_t valid = 0;
+  for (const float z : depth.data)
+    if (z > 0.f && std::isfinite(z) && z >= options.min_depth_m && (options.max_depth_m <= 0 || z <= options.max_depth_m))
+      ++valid;
+  return valid;
+}
+
 bool pose_is_finite(const Rigid3d& pose) { return pose.matrix().allFinite(); }
 
 }  // namespace
@@ -149,6 +159,8 @@ void WarpOptions::check(const std::string& origin) const {
   if (max_depth_m > 0 && max_depth_m <= min_depth_m)
     throw make_error(origin, "panorama.max_depth_m", "must exceed panorama.min_depth_m");
   if (frame_stride < 1) throw make_error(origin, "panorama.frame_stride", "must be >= 1");
+  if (!(min_valid_depth_share >= 0 && min_valid_depth_share <= 1))
+    throw make_error(origin, "panorama.min_valid_depth_share", "must be in [0, 1]");
 }
 
 PanoramaMeasurements warp_frames(const ScanIndex& scan, const RigTrajectory& trajectory, const WarpOptions& options) {
@@ -175,14 +187,25 @@ PanoramaMeasurements warp_frames(const ScanIndex& scan, const RigTrajectory& tra
   // independent of the thread count. Frames are read twice to keep memory to the CSR array alone.
   std::vector<std::atomic<std::uint32_t>> counts(pixels);
   for (auto& count : counts) count.store(0, std::memory_order_relaxed);
-  std::atomic<std::size_t> pole_skips{0};
+  std::atomic<std::size_t> pole_skips{0}, frame_pixels{0}, valid_frame_pixels{0};
   tbb::parallel_for(std::size_t(0), jobs.size(), [&](std::size_t j) {
     const FrameJob& job = jobs[j];
     const RgbdFrame frame = load_frame(scan, job.sensor, job.frame);
+    frame_pixels += frame.depth.data.size();
+    valid_frame_pixels += count_valid_depth(frame.depth, options);
     pole_skips += warp_frame(
         frame, scan.rig.sensors[job.sensor].intrinsics, pano_from_cam(job), out.pano, options,
         [&](std::size_t pixel, float, const std::uint8_t*) { counts[pixel].fetch_add(1, std::memory_order_relaxed); });
   });
+  out.frame_pixels = frame_pixels.load();
+  out.valid_frame_pixels = valid_frame_pixels.load();
+  const double valid_share = out.frame_pixels ? double(out.valid_frame_pixels) / double(out.frame_pixels) : 0.0;
+  if (valid_share < options.min_valid_depth_share)
+    throw make_error(scan.root.string(), "depth",
+                     fmt::format("only {:.1f}% of the pixels of the {} frames used have depth in range (at least "
+                                 "{:.0f}% expected, panorama.min_valid_depth_share): a wrong depth_scale in "
+                                 "rig.json, a covered sensor or a scan of empty space?",
+                                 100.0 * valid_share, jobs.size(), 100.0 * options.min_valid_depth_share));
   out.offsets.assign(pixels + 1, 0);
   for (std::size_t p = 0; p < pixels; ++p) out.offsets[p + 1] = out.offsets[p] + counts[p].load();
   out.samples.resize(out.offsets[pixels]);

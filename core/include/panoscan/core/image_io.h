@@ -2,6 +2,7 @@
 // unreadable or wrongly-shaped image. Every writer is atomic (temp file + rename).
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -23,6 +24,11 @@ ImageU16 read_png16(const std::filesystem::path& path);
 // Float EXR with named channels (e.g. {"R","G","B"} or {"Z"}); image.channels == names.size().
 void write_exr(const std::filesystem::path& path, const ImageF32& image, const std::vector<std::string>& channel_names);
 // Reads the named channels of a float EXR (throws naming the file and channel if one is missing).
-ImageF32 read_exr(const std::filesystem::path& path, const std::vector<std::string>& channel_names);
+// A size larger than kMaxExrSide per side or kMaxExrPixels in all, or other than expected_width x
+// expected_height when those are given (> 0), is an Error raised before the pixels are allocated.
+constexpr std::int64_t kMaxExrSide = 65536;
+constexpr std::int64_t kMaxExrPixels = std::int64_t(1) << 30;
+ImageF32 read_exr(const std::filesystem::path& path, const std::vector<std::string>& channel_names,
+                  int expected_width = 0, int expected_height = 0);
 
 }  // namespace panoscan

@@ -19,6 +19,8 @@ namespace panoscan::eval {
 
 struct CloudEvalOptions {
   CloudMetricsOptions metrics;
+  // Warn when fewer than this share of the points lie within the largest threshold of the mesh.
+  double min_share_near_mesh = 0.5;
   // Each TUM trajectory (e.g. a scan's groundtruth/camK.txt) adds one viewpoint for the
   // visibility test of completeness: the mean of its camera centres (an in-place scan's camera
   // centres lie within ~10 cm of it).
@@ -31,7 +33,7 @@ struct CloudEvalOptions {
 };
 
 // Keys (all optional; defaults as in the structs):
-//   thresholds_m: [0.01, 0.02, 0.05]      outlier_cutoff_m: 0 (off)
+//   thresholds_m: [0.01, 0.02, 0.05]      outlier_cutoff_m: 0 (off)     min_share_near_mesh: 0.5
 //   completeness.enabled: true            completeness.samples_per_m2: 4000
 //   completeness.max_samples: 2000000     completeness.seed: 1
 //   visibility.viewpoints: [x, y, z, x, y, z, ...]   (metres, scene frame)
@@ -54,6 +56,10 @@ struct CloudEvalReport {
   Histogram completeness_histogram_m;             // visible samples -> cloud (empty without completeness)
   ColourLegend colour_legend;                     // when a coloured PLY was written
   double seconds_bvh = 0.0, seconds_total = 0.0;  // the rest is in metrics
+  // What the figures suggest is wrong with the input (printed, in the JSON, and logged): today one,
+  // when most points lie farther from the mesh than the largest threshold, which a cloud in another
+  // frame than the mesh's (tracked poses without --align-to-ground-truth, a wrong registration) gives.
+  std::vector<std::string> warnings;
 };
 
 // Reads the mesh (read_ply_mesh) and the cloud (read_ply_point_cloud; a mesh PLY gives its

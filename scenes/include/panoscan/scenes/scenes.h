@@ -101,4 +101,9 @@ GeneratedRoom generate_room(const RoomSpec& spec);
 //   <name>.positions.json            scanning positions and lights (read by load_scene_file)
 void export_scene(const panoscan::Scene& scene, const std::filesystem::path& out_dir);
 
+// Appends the positions and lights of a positions file (what export_scene writes; format in
+// sim/scene_loader.h) to `scene`. Throws Error naming the file and the field (missing, not finite,
+// duplicate name, negative intensity, ...).
+void read_positions_file(const std::filesystem::path& path, panoscan::Scene& scene);
+
 }  // namespace panoscan::scenes

@@ -44,6 +44,10 @@ struct WarpOptions {
   double min_depth_m = 0.0;             // panorama.min_depth_m: frame depths below are ignored
   double max_depth_m = 0.0;             // panorama.max_depth_m: frame depths above are ignored (0 = none)
   int frame_stride = 1;                 // panorama.frame_stride: use every n-th frame of each camera
+  // panorama.min_valid_depth_share: warp_frames refuses (Error) a scan whose frames have depth on fewer
+  // than this share of their pixels: a wrong depth scale, a covered sensor or a scan of nothing gives
+  // a panorama of a few scattered pixels, not one a user should take for a result.
+  double min_valid_depth_share = 0.2;
   void check(const std::string& origin = "<panorama options>") const;
 };
 
@@ -63,6 +67,8 @@ struct PanoramaMeasurements {
   std::vector<PanoramaMeasurement> samples;
   std::size_t frames_used = 0;
   std::size_t triangles_skipped_at_poles = 0;
+  std::size_t frame_pixels = 0;        // pixels of the frames used
+  std::size_t valid_frame_pixels = 0;  // of those, with depth inside [min_depth_m, max_depth_m]
   std::size_t count(std::size_t pixel) const { return std::size_t(offsets[pixel + 1] - offsets[pixel]); }
   std::size_t memory_bytes() const {
     return offsets.capacity() * sizeof(std::uint64_t) + samples.capacity() * sizeof(PanoramaMeasurement);

@@ -1,0 +1,65 @@
+// Pose JSON: a pose file (`recon register --initial`, or a register output), and a tracked rig
+// trajectory folder (rig_estimate.json + camK.txt, `recon panorama --trajectory`) read against a valid
+// scan. The first byte picks the file the rest becomes.
+#include <array>
+
+#include "fuzz_target.h"
+#include "panoscan/core/pose_json.h"
+#include "panoscan/recon/rig_trajectory.h"
+
+namespace {
+const std::array<const char*, 3> kFiles = {"pose.json", "trajectory/rig_estimate.json", "trajectory/cam0.txt"};
+
+struct Fixture {
+  std::filesystem::path root;
+  panoscan::ScanIndex scan;
+};
+
+const Fixture& fixture() {
+  static const Fixture f = [] {
+    Fixture made;
+    made.root = panoscan::fuzz::scratch_dir() / "pose";
+    panoscan::fuzz::write_tiny_scan(made.root / "scan");
+    made.scan = panoscan::read_scan_index(made.root / "scan");
+    panoscan::RigTrajectory trajectory;
+    trajectory.world_from_cam.resize(1);
+    for (const auto& frame : made.scan.frames[0])
+      trajectory.world_from_cam[0].push_back({frame.timestamp, panoscan::Rigid3d::Identity()});
+    trajectory.ref_from_cam = {panoscan::Rigid3d::Identity()};
+    trajectory.source = "tracked";
+    panoscan::write_rig_trajectory(made.root / "trajectory", trajectory, made.scan.rig);
+    panoscan::fuzz::write_bytes(made.root / "pose.json",
+                                R"({"target_from_source": {"translation": [0.5, -1, 0],)"
+                                R"( "rotation_quaternion_xyzw": [0, 0, 0.70710678, 0.70710678]}})");
+    return made;
+  }();
+  return f;
+}
+}  // namespace
+
+namespace panoscan::fuzz {
+std::vector<std::string> seed_inputs() {
+  std::vector<std::string> seeds;
+  for (std::size_t k = 0; k < kFiles.size(); ++k)
+    seeds.push_back(std::string(1, char(k)) + read_bytes(fixture().root / kFiles[k]));
+  seeds.push_back(std::string(1, char(0)) +
+                  R"({"translation": [1, 2, 3], "rotation_quaternion_xyzw": [0, 0, 0, 1]})");
+  return seeds;
+}
+}  // namespace panoscan::fuzz
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return 0;
+  const Fixture& f = fixture();
+  const auto selected = panoscan::fuzz::select_file(data, size, kFiles.size());
+  const auto path = f.root / kFiles[selected.choice];
+  const std::string original = panoscan::fuzz::read_bytes(path);
+  panoscan::fuzz::write_bytes(path, selected.bytes);
+  if (selected.choice == 0)
+    panoscan::fuzz::expect_clean(path.string(), [&] { panoscan::read_pose_file(path); });
+  else
+    panoscan::fuzz::expect_clean((f.root / "trajectory").string(),
+                                 [&] { panoscan::read_rig_trajectory(f.root / "trajectory", f.scan); });
+  panoscan::fuzz::write_bytes(path, original);
+  return 0;
+}
