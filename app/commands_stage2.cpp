@@ -106,6 +106,16 @@ void run_recon_register(const ReconRegisterArguments& a) {
               {"fitness", r.icp.fitness},
               {"fitness_distance_m", options.icp.fitness_distance_m},
               {"rmse_m", r.icp.rmse_m}};
+  j["overlap"] = r.overlap;
+  if (r.alternative_refined) {
+    const Rigid3d between = r.alternative_target_from_source.inverse() * r.target_from_source;
+    j["alternative"] = {{"orb_inliers", r.guess.alternative_inliers},
+                        {"target_from_source", pose_to_json(r.alternative_target_from_source)},
+                        {"overlap", r.alternative_overlap},
+                        {"consistent_matches", r.alternative_consistent_matches},
+                        {"rotation_from_result_deg", rad2deg(rotation_angle(between.linear()))},
+                        {"translation_from_result_m", between.translation().norm()}};
+  }
   // When both panoramas were built in one frame (ground-truth poses of one scene), their stored
   // poses give the true relative pose; otherwise (tracked, each scan in its own frame) this
   // difference means nothing.

@@ -1,6 +1,7 @@
 #include "panoscan/core/image_io.h"
 
 #include <cstring>
+#include <initializer_list>
 #include <map>
 #include <fstream>
 
@@ -43,9 +44,38 @@ void encode_png(const fs::path& path, const cv::Mat& mat, int compression, int s
   });
 }
 
-cv::Mat decode(const fs::path& path, int flags) {
+// The container format by its first bytes ("" if none of the 8-bit ones read_rgb accepts).
+std::string sniff_image_format(const fs::path& path) {
+  unsigned char head[12] = {};
+  std::ifstream in(path, std::ios::binary);
+  in.read(reinterpret_cast<char*>(head), sizeof head);
+  const std::streamsize got = in.gcount();
+  auto starts = [&](std::initializer_list<unsigned char> magic) {
+    if (got < std::streamsize(magic.size())) return false;
+    std::size_t i = 0;
+    for (unsigned char byte : magic)
+      if (head[i++] != byte) return false;
+    return true;
+  };
+  if (starts({0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'})) return "PNG";
+  if (starts({0xff, 0xd8, 0xff})) return "JPEG";
+  if (starts({'B', 'M'})) return "BMP";
+  if (starts({'I', 'I', '*', 0}) || starts({'M', 'M', 0, '*'})) return "TIFF";
+  if (starts({'R', 'I', 'F', 'F'}) && got >= 12 && std::memcmp(head + 8, "WEBP", 4) == 0) return "WebP";
+  if (got >= 2 && head[0] == 'P' && head[1] >= '1' && head[1] <= '6') return "PNM";
+  return "";
+}
+
+// Decodes with OpenCV, but only formats PanoScan reads: OpenCV picks the decoder by content, and
+// would hand an EXR or HDR file named .png to decoders whose headers can demand gigabytes (found by
+// fuzz/panorama_fuzz.cpp: an EXR as flags.png). `png_only`: depth images (the scan format's PNG).
+cv::Mat decode(const fs::path& path, int flags, bool png_only) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw make_error(path.string(), "", "image file not found");
+  const std::string format = sniff_image_format(path);
+  if (png_only ? format != "PNG" : format.empty())
+    throw make_error(path.string(), "format",
+                     png_only ? "not a PNG file" : "not a PNG, JPEG, BMP, TIFF, WebP or PNM image");
   cv::Mat mat;
   try {
     mat = cv::imread(path.string(), flags);
@@ -89,7 +119,7 @@ void write_png16(const fs::path& path, const ImageU16& image, int compression) {
 }
 
 ImageU8 read_rgb(const fs::path& path) {
-  cv::Mat mat = decode(path, cv::IMREAD_UNCHANGED);
+  cv::Mat mat = decode(path, cv::IMREAD_UNCHANGED, false);
   if (mat.depth() != CV_8U) throw make_error(path.string(), "bit depth", "expected an 8-bit colour image");
   const int channels = mat.channels();
   if (channels != 1 && channels != 3 && channels != 4)
@@ -110,7 +140,7 @@ ImageU8 read_rgb(const fs::path& path) {
 }
 
 ImageU16 read_png16(const fs::path& path) {
-  cv::Mat mat = decode(path, cv::IMREAD_UNCHANGED);
+  cv::Mat mat = decode(path, cv::IMREAD_UNCHANGED, true);
   if (mat.depth() != CV_16U || mat.channels() != 1)
     throw make_error(path.string(), "format",
                      "expected a 16-bit single-channel depth image, found " + std::to_string(mat.channels()) +

@@ -63,12 +63,19 @@ void write_rig_trajectory(const fs::path& dir, const RigTrajectory& trajectory, 
 RigTrajectory read_rig_trajectory(const fs::path& dir, const ScanIndex& scan) {
   const fs::path json_path = dir / "rig_estimate.json";
   const nlohmann::json j = read_json_file(json_path, "not a rig trajectory folder?");
-  if (j.value("format", "") != "panoscan-rig-trajectory")
+  // Checked field by field: a JSON value of another type must be an Error naming it, not a JSON
+  // exception (found by fuzz/pose_fuzz.cpp).
+  if (!j.is_object()) throw make_error(json_path.string(), "", "expected a JSON object");
+  if (!j.contains("format") || j["format"] != "panoscan-rig-trajectory")
     throw make_error(json_path.string(), "format", "expected \"panoscan-rig-trajectory\"");
-  if (j.value("version", 0) != 1)
-    throw make_error(json_path.string(), "version", "expected 1, found " + j.value("version", nlohmann::json()).dump());
+  if (!j.contains("version") || !j["version"].is_number_integer() || j["version"] != 1)
+    throw make_error(json_path.string(), "version",
+                     "expected 1, found " + (j.contains("version") ? j["version"].dump() : std::string("nothing")));
   RigTrajectory trajectory;
-  trajectory.source = j.value("source", "");
+  if (j.contains("source")) {
+    if (!j["source"].is_string()) throw make_error(json_path.string(), "source", "expected a string");
+    trajectory.source = j["source"].get<std::string>();
+  }
   if (!j.contains("world_from_axis")) throw make_error(json_path.string(), "world_from_axis", "missing field");
   trajectory.world_from_axis = pose_from_json(j["world_from_axis"], json_path.string(), "world_from_axis");
   if (!j.contains("ref_from_cam") || !j["ref_from_cam"].is_array())

@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include "panoscan/core/error.h"
+#include "panoscan/core/log.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/kdtree.h"
 #include "panoscan/recon/point_covariance.h"
@@ -146,15 +149,67 @@ PairRegistration register_panorama_pair(const Panorama& source, const Panorama& 
                          std::to_string(int(std::lround(1000 * options.icp.fitness_distance_m))) +
                          " mm of the target's surface, minimum " +
                          std::to_string(int(std::lround(100 * options.min_fitness))) + "%)");
+  // Ambiguity: the runner-up hypothesis refined the same way. Two distinct poses with about the same
+  // overlap mean a room the geometry cannot place this scan in (mirror symmetry, repeated bays).
+  if (!given_initial && result.guess.alternative_inliers > 0) {
+    IcpResult alternative;
+    try {
+      alternative = register_icp(source_cloud, target_cloud, result.guess.alternative_target_from_source, options.icp);
+      result.alternative_refined = true;
+      result.alternative_target_from_source = alternative.target_from_source;
+      result.alternative_overlap = surface_overlap(source_cloud, target_cloud, alternative.target_from_source,
+                                                   options.icp.max_correspondence_m, options.icp.fitness_distance_m);
+      result.alternative_consistent_matches =
+          count_consistent_matches(result.guess, alternative.target_from_source, options.consistency_threshold_m);
+    } catch (const Error&) {
+      // The runner-up does not converge (too little overlap at it): no alternative.
+    }
+    if (result.alternative_refined) {
+      const Rigid3d between = result.alternative_target_from_source.inverse() * result.target_from_source;
+      const double rotation_deg = rad2deg(rotation_angle(between.linear()));
+      const double translation_m = between.translation().norm();
+      // The same basin (within the loop-closure tolerances of placement.h): no ambiguity.
+      const bool distinct = rotation_deg > 2.0 || translation_m > 0.1;
+      if (distinct && result.alternative_overlap > result.overlap + options.ambiguity_margin) {
+        // The runner-up fits the geometry clearly better: ORB's majority was the wrong one.
+        log_warn(fmt::format("{}: the runner-up ORB hypothesis ({} matches) fits better after ICP (overlap {:.3f} "
+                             "against {:.3f}); taking it",
+                             pair, result.guess.alternative_inliers, result.alternative_overlap, result.overlap));
+        std::swap(result.target_from_source, result.alternative_target_from_source);
+        std::swap(result.overlap, result.alternative_overlap);
+        std::swap(result.icp, alternative);
+        result.alternative_consistent_matches = count_consistent_matches(
+            result.guess, result.alternative_target_from_source, options.consistency_threshold_m);
+        std::swap(result.guess.target_from_source, result.guess.alternative_target_from_source);
+        std::swap(result.guess.inliers, result.guess.alternative_inliers);
+      } else if (distinct && result.alternative_overlap >= result.overlap - options.ambiguity_margin) {
+        throw make_error(
+            pair, "registration",
+            fmt::format("ambiguous: two poses {:.1f} deg and {:.2f} m apart fit about equally (overlap {:.3f} with {} "
+                        "ORB matches, {:.3f} with {}; registration.ambiguity_margin {:.2f}) - a symmetric or "
+                        "repeating room? Give an initial pose (recon register --initial)",
+                        rotation_deg, translation_m, result.overlap, result.guess.inliers,
+                        result.alternative_overlap, result.guess.alternative_inliers, options.ambiguity_margin));
+      }
+    }
+  }
   // Verification: the geometry alone cannot tell a wrong local minimum in a box-like room; the
   // feature matches can (a wrong pose explains few of them).
-  if (result.guess.inliers >= options.features.min_inliers) {
+  // A given pose at the ORB runner-up (the true pose of a symmetric pair, say) is held to the
+  // runner-up's matches, not to the majority it contradicts.
+  int verified = result.guess.inliers;
+  if (given_initial && result.guess.alternative_inliers > 0) {
+    const Rigid3d to_alternative = result.guess.alternative_target_from_source.inverse() * result.target_from_source;
+    if (rad2deg(rotation_angle(to_alternative.linear())) <= 2.0 && to_alternative.translation().norm() <= 0.1)
+      verified = result.guess.alternative_inliers;
+  }
+  if (verified >= options.features.min_inliers) {
     result.consistent_matches =
         count_consistent_matches(result.guess, result.target_from_source, options.consistency_threshold_m);
-    if (result.consistent_matches < options.min_consistent_fraction * result.guess.inliers)
+    if (result.consistent_matches < options.min_consistent_fraction * verified)
       throw make_error(pair, "registration",
                        "failed: the final pose explains only " + std::to_string(result.consistent_matches) + " of " +
-                           std::to_string(result.guess.inliers) + " verified feature matches (initial guess wrong?)");
+                           std::to_string(verified) + " verified feature matches (initial guess wrong?)");
   }
   return result;
 }
@@ -189,6 +244,7 @@ PairRegistrationOptions pair_registration_options_from_config(Config& config) {
       config.get_double("registration.max_correspondence_m", icp.max_correspondence_m, 1e-3, 10.0);
   icp.max_iterations = config.get_int("registration.max_iterations", icp.max_iterations, 1, 1000);
   options.min_fitness = config.get_double("registration.min_fitness", options.min_fitness, 0.0, 1.0);
+  options.ambiguity_margin = config.get_double("registration.ambiguity_margin", options.ambiguity_margin, 0.0, 1.0);
   icp.threads = config.get_int("threads", 0, 0, 1024);
   PanoramaCloudOptions& cloud = options.cloud;
   // "Def." (Table 4) means the general noise model in place of the measured variance.

@@ -96,7 +96,27 @@ FeatureAlignment align_panorama_features(const PanoramaImages& source, const Pan
   result.inliers = int(best_inliers.size());
   result.inlier_rmse_m = best_inliers.empty() ? 0.0 : std::sqrt(sum / best_inliers.size());
   result.success = result.inliers >= options.min_inliers;
-  if (!result.success) result.failure = "too few inliers after refinement";
+  if (!result.success) {
+    result.failure = "too few inliers after refinement";
+    return result;
+  }
+  // The runner-up: the same RANSAC on the matches the best pose leaves unexplained. In a room with
+  // repeated or mirrored structure (the built-in office is nearly point-symmetric) the true pose
+  // can be this one, with fewer matches than the mirror image.
+  std::vector<Eigen::Vector3d> rest_from, rest_to;
+  for (int i = 0; i < n; ++i)
+    if ((result.target_from_source * matched_from[std::size_t(i)] - matched_to[std::size_t(i)]).norm() >=
+        options.inlier_threshold_m) {
+      rest_from.push_back(matched_from[std::size_t(i)]);
+      rest_to.push_back(matched_to[std::size_t(i)]);
+    }
+  RigidRansacResult second;
+  if (int(rest_from.size()) >= options.min_inliers &&
+      rigid_ransac(rest_to, rest_from, std::vector<double>(rest_from.size(), options.inlier_threshold_m),
+                   options.ransac_iterations, options.min_inliers, options.seed, 1, &second)) {
+    result.alternative_target_from_source = second.a_from_b;
+    result.alternative_inliers = int(second.inliers.size());
+  }
   return result;
 }
 

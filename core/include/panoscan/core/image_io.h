@@ -16,9 +16,10 @@ void write_png(const std::filesystem::path& path, const ImageU8& image, int comp
 // 16-bit single-channel PNG (depth).
 void write_png16(const std::filesystem::path& path, const ImageU16& image, int compression = 1);
 
-// Reads an 8-bit PNG/JPEG as RGB (3 channels). Throws if the file is missing or not an image.
+// Reads an 8-bit PNG, JPEG, BMP, TIFF, WebP or PNM image as RGB (3 channels), the format told by the
+// file's first bytes, not its name. Throws if the file is missing, of another format, or corrupt.
 ImageU8 read_rgb(const std::filesystem::path& path);
-// Reads a 16-bit single-channel PNG. Throws if it is not 16-bit single-channel.
+// Reads a 16-bit single-channel PNG. Throws if it is not a PNG (by content) or not 16-bit single-channel.
 ImageU16 read_png16(const std::filesystem::path& path);
 
 // Float EXR with named channels (e.g. {"R","G","B"} or {"Z"}); image.channels == names.size().

@@ -55,6 +55,16 @@ struct PairRegistrationOptions {
   // it the panoramas do not overlap there (an Error). A plane distance, so that the figure does not
   // depend on the sampling density. A wrong pose in the same room is caught by the feature check.
   double min_fitness = 0.5;
+  // Ambiguity (registration.ambiguity_margin): when the ORB guess has a runner-up (a distinct pose
+  // from the matches the best leaves unexplained; feature_alignment.h), ICP refines it too. If it
+  // converges to a distinct pose whose overlap is within this margin of the best's, the registration
+  // refuses (an Error asking for an initial pose); if it is better by more, it is taken. The margin is
+  // wide because the overlap favours the shorter baseline: the mirrored pose of a point-symmetric pair
+  // puts both centres in one place, where nothing is occluded (measured on the office's SO-2 -> SO-1:
+  // 0.90 at the mirror against 0.79 at the truth on noiseless renders, 0.87 against 0.88 on simulated
+  // scans), while a spurious runner-up in an asymmetric room lies far below (living room SL-1 -> SL-2:
+  // 0.62 against 0.96).
+  double ambiguity_margin = 0.15;
 };
 
 // The ORB + RANSAC guess between the two colour panoramas (§5.1), as register_panorama_pair makes it.
@@ -67,6 +77,12 @@ struct PairRegistration {
   IcpResult icp;
   int consistent_matches = 0;
   double overlap = 0.0;  // surface_overlap at the final pose
+  // The runner-up of the ORB guess after ICP (alternative_refined: there was one, no initial pose was
+  // given, and its ICP converged), its overlap and the feature matches it explains.
+  bool alternative_refined = false;
+  Rigid3d alternative_target_from_source = Rigid3d::Identity();
+  double alternative_overlap = 0.0;
+  int alternative_consistent_matches = 0;
 };
 
 // The fraction of source points whose nearest target point (within max_correspondence_m, after

@@ -41,6 +41,11 @@ struct FeatureAlignment {
   int matches = 0;  // after ratio and cross check, with valid depth on both sides
   int inliers = 0;
   double inlier_rmse_m = 0.0;
+  // The best pose among the matches the best one leaves unexplained (the same RANSAC on them), when
+  // it gathers at least min_inliers: in a room with repeated or mirrored structure a distinct pose
+  // can explain many matches too, and the true one may be this runner-up (stage2.h's ambiguity check).
+  Rigid3d alternative_target_from_source = Rigid3d::Identity();
+  int alternative_inliers = 0;  // 0: no runner-up
   // The matched 3D points (panorama frames) after the ratio and cross checks, for verifying a
   // pose found otherwise (count_consistent_matches).
   std::vector<Eigen::Vector3d> matched_source, matched_target;
