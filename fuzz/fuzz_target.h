@@ -1,4 +1,4 @@
-// What every fuzz target shares (docs/ARCHITECTURE.md §17): the libFuzzer entry point, a scratch
+// What every fuzz target shares (docs/ARCHITECTURE.md §17.3): the libFuzzer entry point, a scratch
 // folder for readers that take paths, and the rule that bad input must end in panoscan::Error.
 //
 // A target defines LLVMFuzzerTestOneInput and seed_inputs(). Built with clang's -fsanitize=fuzzer
