@@ -288,6 +288,46 @@ TEST_F(IoTest, ExrBadInputIsRejected) {
   EXPECT_THAT(message, HasSubstr((dir_ / "bad.exr").string()));
 }
 
+TEST_F(IoTest, ExrHeadersThatWouldAllocateGigabytesAreRefusedFirst) {
+  // Found by fuzz/panorama_fuzz.cpp: OpenEXR 3.1 allocates an attribute's declared size, and parses
+  // typed attributes by their layout, so a few corrupt header bytes asked for 1.7 GB.
+  const fs::path good = dir_ / "good.exr";
+  write_exr(good, make_float_image(8, 4, 1), {"Z"});
+  std::string bytes;
+  {
+    std::ifstream in(good, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  auto corrupt = [&](const std::string& name, const std::string& attribute, const std::string& replacement) {
+    std::string changed = bytes;
+    const std::size_t at = changed.find(attribute);
+    EXPECT_NE(at, std::string::npos) << attribute;
+    changed.replace(at, replacement.size(), replacement);
+    const fs::path path = dir_ / name;
+    std::ofstream(path, std::ios::binary) << changed;
+    return path;
+  };
+  // "compression\0compression\0" + size 1: the size made 0x7f000001.
+  std::string huge_size = std::string("compression\0compression\0", 24) + std::string("\x01\x00\x00\x7f", 4);
+  const fs::path oversized = corrupt("oversized.exr", std::string("compression\0compression\0", 24), huge_size);
+  std::string message = error_of([&] { read_exr(oversized, {"Z"}); });
+  EXPECT_THAT(message, HasSubstr(oversized.string()));
+  EXPECT_THAT(message, HasSubstr("exceeds the file"));
+  // A box2i of the wrong size (OpenEXR would read 16 bytes and misread every later field).
+  const fs::path misaligned = corrupt("misaligned.exr", std::string("dataWindow\0box2i\0\x10", 18),
+                                      std::string("dataWindow\0box2i\0\x11", 18));
+  message = error_of([&] { read_exr(misaligned, {"Z"}); });
+  EXPECT_THAT(message, HasSubstr("dataWindow"));
+  // The size panorama.json promises, checked before the pixels are allocated.
+  message = error_of([&] { read_exr(good, {"Z"}, 16, 8); });
+  EXPECT_THAT(message, HasSubstr("expected 16x8"));
+  // An EXR where a PNG belongs is not handed to OpenCV's EXR decoder.
+  const fs::path disguised = dir_ / "flags.png";
+  fs::copy_file(good, disguised);
+  EXPECT_THAT(error_of([&] { read_rgb(disguised); }), HasSubstr("not a PNG, JPEG"));
+  EXPECT_THAT(error_of([&] { read_png16(disguised); }), HasSubstr("not a PNG file"));
+}
+
 // ---------------------------------------------------------------- TUM trajectories
 
 std::vector<StampedPose> make_trajectory() {

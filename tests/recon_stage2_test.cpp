@@ -219,8 +219,8 @@ TEST(Stage2, PoseGraphOverFourOfficePositionsLowersTheWorstInconsistency) {
       "deg after the pose graph; worst position error %.2f mm\n",
       result.edges.size(), result.inconsistency_chained.translation_m * 1e3, result.inconsistency_chained.rotation_deg,
       result.inconsistency_final.translation_m * 1e3, result.inconsistency_final.rotation_deg, worst_error_mm);
-  // The loop SO-1, SO-3, SO-2, SO-4 and back (4 edges) at least; the diagonal pairs can register 180
-  // degrees wrong in the symmetric office (features and geometry both agree) and are dropped.
+  // The loop SO-1, SO-3, SO-2, SO-4 and back (4 edges) at least; the diagonal pairs mirror each other
+  // in the symmetric office: refused as ambiguous (or, if registered mirrored, dropped by the chain).
   EXPECT_TRUE(result.pose_graph_used);
   EXPECT_GE(result.edges.size(), 4u);
   EXPECT_LT(result.inconsistency_final.translation_m, result.inconsistency_chained.translation_m);
