@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Builds the project with AddressSanitizer + UndefinedBehaviorSanitizer (g++, its own build folder)
-# and runs every CTest test except the accuracy gates (label `gate`: the same code as the e2e tests,
-# at a size that takes too long under ASan). A finding aborts its test, so the script fails.
-# Usage: bash scripts/sanitize.sh [CTEST_ARGS ...]   e.g. -R core_test
+# and runs the unit tests: every CTest test except the accuracy gates and the end-to-end tests
+# (labels `gate`, `e2e`: the same code at sizes that take too long under ASan). A finding aborts its
+# test, so the script fails.
+# Usage: bash scripts/sanitize.sh [CTEST_ARGS ...]   e.g. -R core_test; `-LE gate` adds the e2e tests
 # Environment: PANOSCAN_SANITIZE_BUILD (build folder, default build-sanitize).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -22,7 +23,9 @@ export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:dete
 export LSAN_OPTIONS="suppressions=$PWD/scripts/lsan.supp:print_suppressions=0"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 status=0
-(cd "$build_dir" && ctest --output-on-failure -j 2 -LE gate "$@") || status=$?
+ctest_args=("$@")
+[ ${#ctest_args[@]} -eq 0 ] && ctest_args=(-LE 'gate|e2e')
+(cd "$build_dir" && ctest --output-on-failure -j 2 "${ctest_args[@]}") || status=$?
 end=$(date +%s)
 echo "sanitize.sh: build $((built - start)) s, tests $((end - built)) s: $([ $status -eq 0 ] && echo clean || echo FINDINGS)"
 exit $status
