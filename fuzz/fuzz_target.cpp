@@ -88,4 +88,10 @@ Selected select_file(const std::uint8_t* data, std::size_t size, std::size_t cho
   return selected;
 }
 
+std::vector<std::string> folder_seeds(const fs::path& dir, const std::vector<std::string>& files) {
+  std::vector<std::string> seeds;
+  for (std::size_t k = 0; k < files.size(); ++k) seeds.push_back(std::string(1, char(k)) + read_bytes(dir / files[k]));
+  return seeds;
+}
+
 }  // namespace panoscan::fuzz

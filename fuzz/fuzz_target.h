@@ -46,6 +46,19 @@ struct Selected {
 };
 Selected select_file(const std::uint8_t* data, std::size_t size, std::size_t choices);
 
+// The seeds of a folder target: for each of `files` (relative to `dir`), its index byte + its bytes.
+std::vector<std::string> folder_seeds(const std::filesystem::path& dir, const std::vector<std::string>& files);
+
+// Replaces `path` by `bytes`, runs `read`, and puts the original back (inputs must not leak into the
+// next one).
+template <class Read>
+void with_file_replaced(const std::filesystem::path& path, const std::string& bytes, Read&& read) {
+  const std::string original = read_bytes(path);
+  write_bytes(path, bytes);
+  read();
+  write_bytes(path, original);
+}
+
 }  // namespace panoscan::fuzz
 
 #include "panoscan/core/error.h"

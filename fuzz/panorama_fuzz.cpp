@@ -1,13 +1,11 @@
 // Panorama folders (panorama.json + EXR + flags.png, what `recon panorama` writes and `recon
 // register`/`scene` read): the first byte picks which file of a valid 8x16 panorama the rest replaces.
-#include <array>
-
 #include "fuzz_target.h"
 #include "panoscan/recon/panorama.h"
 
 namespace {
-const std::array<const char*, 6> kFiles = {"panorama.json", "depth.exr", "colour.exr",
-                                           "variance.exr",  "count.exr", "flags.png"};
+const std::vector<std::string> kFiles = {"panorama.json", "depth.exr", "colour.exr",
+                                        "variance.exr",  "count.exr", "flags.png"};
 
 const std::filesystem::path& panorama_dir() {
   static const std::filesystem::path dir = [] {
@@ -39,23 +37,18 @@ const std::filesystem::path& panorama_dir() {
 
 namespace panoscan::fuzz {
 std::vector<std::string> seed_inputs() {
-  std::vector<std::string> seeds;
-  for (std::size_t k = 0; k < kFiles.size(); ++k)
-    seeds.push_back(std::string(1, char(k)) + read_bytes(panorama_dir() / kFiles[k]));
-  return seeds;
+  return folder_seeds(panorama_dir(), kFiles);
 }
 }  // namespace panoscan::fuzz
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
   const auto selected = panoscan::fuzz::select_file(data, size, kFiles.size());
-  const auto path = panorama_dir() / kFiles[selected.choice];
-  const std::string original = panoscan::fuzz::read_bytes(path);
-  panoscan::fuzz::write_bytes(path, selected.bytes);
-  panoscan::fuzz::expect_clean(panorama_dir().string(), [&] {
-    const panoscan::Panorama p = panoscan::read_panorama(panorama_dir());
-    p.to_point_cloud(false);
+  panoscan::fuzz::with_file_replaced(panorama_dir() / kFiles[selected.choice], selected.bytes, [&] {
+    panoscan::fuzz::expect_clean(panorama_dir().string(), [&] {
+      const panoscan::Panorama p = panoscan::read_panorama(panorama_dir());
+      p.to_point_cloud(false);
+    });
   });
-  panoscan::fuzz::write_bytes(path, original);
   return 0;
 }

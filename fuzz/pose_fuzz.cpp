@@ -1,14 +1,12 @@
 // Pose JSON: a pose file (`recon register --initial`, or a register output), and a tracked rig
 // trajectory folder (rig_estimate.json + camK.txt, `recon panorama --trajectory`) read against a valid
 // scan. The first byte picks the file the rest becomes.
-#include <array>
-
 #include "fuzz_target.h"
 #include "panoscan/core/pose_json.h"
 #include "panoscan/recon/rig_trajectory.h"
 
 namespace {
-const std::array<const char*, 3> kFiles = {"pose.json", "trajectory/rig_estimate.json", "trajectory/cam0.txt"};
+const std::vector<std::string> kFiles = {"pose.json", "trajectory/rig_estimate.json", "trajectory/cam0.txt"};
 
 struct Fixture {
   std::filesystem::path root;
@@ -39,9 +37,7 @@ const Fixture& fixture() {
 
 namespace panoscan::fuzz {
 std::vector<std::string> seed_inputs() {
-  std::vector<std::string> seeds;
-  for (std::size_t k = 0; k < kFiles.size(); ++k)
-    seeds.push_back(std::string(1, char(k)) + read_bytes(fixture().root / kFiles[k]));
+  std::vector<std::string> seeds = folder_seeds(fixture().root, kFiles);
   seeds.push_back(std::string(1, char(0)) +
                   R"({"translation": [1, 2, 3], "rotation_quaternion_xyzw": [0, 0, 0, 1]})");
   return seeds;
@@ -53,13 +49,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const Fixture& f = fixture();
   const auto selected = panoscan::fuzz::select_file(data, size, kFiles.size());
   const auto path = f.root / kFiles[selected.choice];
-  const std::string original = panoscan::fuzz::read_bytes(path);
-  panoscan::fuzz::write_bytes(path, selected.bytes);
-  if (selected.choice == 0)
-    panoscan::fuzz::expect_clean(path.string(), [&] { panoscan::read_pose_file(path); });
-  else
-    panoscan::fuzz::expect_clean((f.root / "trajectory").string(),
-                                 [&] { panoscan::read_rig_trajectory(f.root / "trajectory", f.scan); });
-  panoscan::fuzz::write_bytes(path, original);
+  panoscan::fuzz::with_file_replaced(path, selected.bytes, [&] {
+    if (selected.choice == 0)
+      panoscan::fuzz::expect_clean(path.string(), [&] { panoscan::read_pose_file(path); });
+    else
+      panoscan::fuzz::expect_clean((f.root / "trajectory").string(),
+                                   [&] { panoscan::read_rig_trajectory(f.root / "trajectory", f.scan); });
+  });
   return 0;
 }
