@@ -75,9 +75,9 @@ TEST(Report, VersionAndRevisionAreCompiledIn) {
   EXPECT_FALSE(project_version().empty());
   EXPECT_NE(project_version(), "unknown");
   // From a git checkout (CI clones the repository) the revision is a hexadecimal commit, with
-  // "-dirty" when built from uncommitted changes; from an exported source tree it is "unknown".
+  // "-dirty-<hash of the changes>" when built from uncommitted changes; from an exported source tree it is "unknown".
   if (std::filesystem::exists(std::filesystem::path(PANOSCAN_SOURCE_DIR) / ".git"))
-    EXPECT_THAT(source_revision(), MatchesRegex("[0-9a-f]{12}(-dirty)?|.*-g[0-9a-f]{12}(-dirty)?"));
+    EXPECT_THAT(source_revision(), MatchesRegex("([0-9a-f]{12}|.*-g[0-9a-f]{12})(-dirty-[0-9a-f]{10})?"));
   else
     EXPECT_EQ(source_revision(), "unknown");
 }
