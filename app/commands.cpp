@@ -4,9 +4,11 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include "panoscan/core/timer.h"
@@ -411,8 +413,25 @@ void run_tables(const TablesArguments& a) {
     for (const auto& d : tables::table_drivers()) std::cout << fmt::format("{:8} {}\n", d.name, d.description);
     return;
   }
+  if (a.names[0] == "merge") {
+    // tables merge RECORD... --out DIR: the records' statistics, nothing re-run.
+    if (a.names.size() < 2) throw make_error("tables merge", "records", "give the run records or folders to merge");
+    const std::vector<fs::path> records(a.names.begin() + 1, a.names.end());
+    for (const fs::path& dir : tables::merge_and_write(records, a.out)) std::cout << dir.string() << "\n";
+    std::cout << (fs::path(a.out) / "claims.md").string() << "\n";
+    return;
+  }
+  const bool scan_only = a.names[0] == "scan";
+  const bool columns_only = a.names[0] == "columns";
+  if (columns_only && a.names.size() != 2) throw make_error("tables columns", "names", "give one table (e.g. table4)");
+  if (scan_only && a.names.size() < 2) throw make_error("tables scan", "labels", "give the scan labels (e.g. SO-1)");
+  if (!a.seeds.empty() && a.seed != 1) throw make_error("--seeds", a.seeds, "give --seed or --seeds, not both");
+  const std::vector<std::uint64_t> seeds =
+      a.seeds.empty() ? std::vector<std::uint64_t>{std::uint64_t(std::max(a.seed, 0LL))} : tables::parse_seed_list(a.seeds);
   std::vector<std::string> names;
   for (const auto& n : a.names) {
+    if (scan_only) break;
+    if (columns_only && n == "columns") continue;
     if (n == "all") {
       for (const auto& d : tables::table_drivers()) names.push_back(d.name);
     } else {
@@ -439,12 +458,41 @@ void run_tables(const TablesArguments& a) {
     options.seed = std::uint64_t(a.seed);
     options.only = a.only;
     options.texture = texture;
+    if (!a.scenes.empty()) options.scenes = a.scenes;
     tables::check_tables_options(options);  // every run is checked before the first starts
     runs.push_back(options);
   }
+  if (columns_only) {
+    // tables columns NAME: one line per column, "LABEL SCAN...", for a workflow to schedule the
+    // simulations and one run per column (--only LABEL).
+    for (const auto& column : tables::table_driver(names.front()).columns(runs.front()))
+      std::cout << column.label << (column.scans.empty() ? "" : " ") << fmt::format("{}", fmt::join(column.scans, " "))
+                << "\n";
+    return;
+  }
+  if (scan_only) {
+    // tables scan LABEL...: the scans a table run would simulate, into the cache (a workflow's first
+    // job), one line per scan folder.
+    for (auto options : runs)
+      for (std::uint64_t seed : seeds) {
+        options.seed = seed;
+        for (auto it = a.names.begin() + 1; it != a.names.end(); ++it)
+          std::cout << tables::cached_scan(*it, options).string() << "\n";
+      }
+    return;
+  }
   for (const auto& options : runs)
     for (const auto& name : names) {
-      const tables::TableRun run = tables::run_and_write(name, options);
+      if (seeds.size() > 1) {
+        tables::run_seeds_and_write(name, options, seeds);
+        const fs::path merged = options.out / name / (name + ".md");
+        std::ifstream text(merged);
+        std::cout << text.rdbuf() << "\n(" << merged.string() << ")\n";
+        continue;
+      }
+      tables::TablesOptions one = options;
+      one.seed = seeds.front();
+      const tables::TableRun run = tables::run_and_write(name, one);
       for (const auto& t : run.tables) std::cout << eval::table_to_markdown(t) << "\n";
       for (const auto& note : run.notes) std::cout << "- " << note << "\n";
     }

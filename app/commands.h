@@ -136,10 +136,13 @@ struct TablesArguments {
   std::string cache;
   std::vector<std::string> only;
   long long seed = 1;
+  std::string seeds;                   // --seeds 1-8: one run per seed, then the merged statistics
+  std::vector<std::string> scenes;     // --scenes builtin | generated:N | FILE (default builtin)
   int threads = 0;
   std::vector<std::string> overrides;  // --set: scene.texture
 };
-// Runs the table drivers (benchmarks/tables) and writes <out>/<noise>/<name>/<name>.{md,csv,json}.
+// Runs the table drivers (benchmarks/tables) and writes <out>/<noise>/<name>/<name>.{md,csv,json};
+// `tables merge RECORDS...` merges run records, `tables scan LABELS...` fills the scan cache.
 void run_tables(const TablesArguments& arguments);
 
 }  // namespace panoscan::app

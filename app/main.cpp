@@ -104,13 +104,23 @@ int main(int argc, char** argv) {
   TablesArguments tables_args;
   CLI::App* tables_cmd = app.add_subcommand(
       "tables", "regenerate the paper's tables and figures (one command each; `tables list` names them)");
-  tables_cmd->add_option("names", tables_args.names, "table1 ... table6, fig8, all, or list")->required();
+  tables_cmd->add_option("names", tables_args.names,
+                         "table1 ... table6, fig8, all, or list; `merge RECORD...` merges runs (--out); `scan "
+                         "LABEL...` simulates scans into the cache; `columns NAME` lists a table's columns and "
+                         "their scans")
+      ->required();
   tables_cmd->add_option("--size", tables_args.size, "quick (CI size) or full (the record)")->capture_default_str();
   tables_cmd->add_option("--noise", tables_args.noise, "handa (the paper's), kinect, or both")->capture_default_str();
   tables_cmd->add_option("--out", tables_args.out, "results folder: <out>/<noise>/<table>/")->capture_default_str();
   tables_cmd->add_option("--cache", tables_args.cache, "simulated scans, reused across runs (default <out>/scans)");
   tables_cmd->add_option("--only", tables_args.only, "restrict to these scan or pair labels (repeatable)");
   tables_cmd->add_option("--seed", tables_args.seed, "simulation seed")->capture_default_str();
+  tables_cmd->add_option("--seeds", tables_args.seeds,
+                         "one run per seed (e.g. 1-8 or 1,3,5-7), then mean, 95% CI and n per cell and each claim's "
+                         "paired difference");
+  tables_cmd->add_option("--scenes", tables_args.scenes,
+                         "rooms measured: builtin, generated:N (the generator's rooms 1..N) or scene files "
+                         "(repeatable; default builtin)");
   tables_cmd->add_option("--threads", tables_args.threads, "worker threads (0 = all cores)");
   tables_cmd->add_option("--set", tables_args.overrides,
                          "the scanned rooms' texture density: --set scene.texture=icl|rich|plain (default icl)");

@@ -7,6 +7,8 @@ cd "$(dirname "$0")/.."
 build_dir="${1:-build}"
 
 # clang-14 + libfuzzer-14-dev: the fuzz build (scripts/fuzz.sh); the tests replay the corpora with g++.
+# snakemake, slurm-wlm, munge: the workflow (workflow/Snakefile) and its Slurm test, which starts a one-node
+# cluster of its own (tests/cluster/run_cluster_test.sh).
 # libopenblas0-pthread: the BLAS/LAPACK alternative for CHOLMOD in the tracking solve (2x faster than
 # ATLAS, which libceres-dev pulls in; see CMakeLists.txt).
 packages=(
@@ -18,6 +20,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
   python3-matplotlib python3-numpy
   clang-14 libfuzzer-14-dev
+  snakemake slurm-wlm munge
 )
 
 missing=()

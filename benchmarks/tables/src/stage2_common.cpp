@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "cache_lock.h"
+#include "scene_catalog.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
@@ -72,15 +73,9 @@ Panorama tracked_panorama(const std::string& label, const TablesOptions& options
   return cached_panorama(label, options, true);
 }
 
-std::unique_ptr<eval::MeshDistance> scene_mesh(const std::string& label) {
-  std::string scene;
-  if (label.rfind("SL", 0) == 0)
-    scene = "living_room";
-  else if (label.rfind("SO", 0) == 0)
-    scene = "office";
-  else
-    throw make_error("scan", label, "unknown built-in scan label (expected SL-... or SO-...)");
-  return std::make_unique<eval::MeshDistance>(scenes::make_builtin_scene(scene).mesh, scene);
+std::unique_ptr<eval::MeshDistance> scene_mesh(const std::string& label, const TablesOptions& options) {
+  const LabelledScene scene = scene_for_label(label, options);
+  return std::make_unique<eval::MeshDistance>(scene.scene->mesh, scene.scene->name);
 }
 
 int registration_stride(int panorama_height) { return std::max(1, panorama_height / 256); }
@@ -99,16 +94,6 @@ PanoramaCloudOptions integration_cloud_options(const TablesOptions& options) {
   PanoramaCloudOptions cloud = registration_options(options).cloud;
   cloud.pixel_stride = 1;
   return cloud;
-}
-
-std::vector<std::string> pair_labels(const TablesOptions& options) {
-  if (options.only.empty()) return size_preset(options.size).pairs;
-  std::vector<std::string> pairs;
-  for (const std::string& label : options.only) {
-    const auto dash = label.find('-');
-    if (dash != std::string::npos && label.size() == dash + 3) pairs.push_back(label);
-  }
-  return pairs;
 }
 
 DistanceStats distance_stats(std::vector<double> d) {

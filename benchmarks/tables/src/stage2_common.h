@@ -29,7 +29,7 @@ Panorama ground_truth_panorama(const std::string& label, const TablesOptions& op
 Panorama tracked_panorama(const std::string& label, const TablesOptions& options);
 
 // The ground-truth mesh of the scene a label belongs to ("SO-1" -> the office).
-std::unique_ptr<eval::MeshDistance> scene_mesh(const std::string& label);
+std::unique_ptr<eval::MeshDistance> scene_mesh(const std::string& label, const TablesOptions& options);
 
 // Registration settings of the tables: the paper's (lambda_a = 0.15 m, 50 iterations, sigma_z <=
 // 0.15 m) on every `registration_stride(H)`-th pixel row and column, so that registration sees
@@ -39,9 +39,6 @@ int registration_stride(int panorama_height);
 PairRegistrationOptions registration_options(const TablesOptions& options);
 // Integration and evaluation use every pixel.
 PanoramaCloudOptions integration_cloud_options(const TablesOptions& options);
-
-// Pair labels of a driver: the preset's pairs, or those of options.only that look like pairs.
-std::vector<std::string> pair_labels(const TablesOptions& options);
 
 struct DistanceStats {
   double rmse_mm = 0, mean_mm = 0, median_mm = 0;

@@ -32,9 +32,7 @@ TableRun run_table6(const TablesOptions& options) {
   table.unit = "ms | s";
   table.decimals = 2;
   TableRun run;
-  for (const std::string& pair : preset.pairs) {
-    if (!options.only.empty() && std::find(options.only.begin(), options.only.end(), pair) == options.only.end())
-      continue;
+  for (const std::string& pair : pair_labels(options)) {
     const auto [source_label, target_label] = pair_scans(pair);
     std::vector<Panorama> panoramas;
     double frontend_ms = 0, warp_ms = 0, tracking_s = 0, optimise_s = 0;
@@ -85,7 +83,8 @@ TableRun run_table6(const TablesOptions& options) {
 }  // namespace
 
 TableDriver table6_driver() {
-  return {"table6", "time per module (front end, warping, tracking, optimisation, alignment, integration)", run_table6};
+  return {"table6", "time per module (front end, warping, tracking, optimisation, alignment, integration)", run_table6,
+          pair_columns};
 }
 
 }  // namespace panoscan::tables

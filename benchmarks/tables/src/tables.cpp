@@ -14,6 +14,7 @@
 
 #include "cache_lock.h"
 #include "drivers.h"
+#include "scene_catalog.h"
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
@@ -62,6 +63,7 @@ void check_tables_options(const TablesOptions& options) {
   sim_options_from_config(config);
   if (options.threads < 0) throw make_error("--threads", "", "must not be negative");
   scenes::texture_density_from_string(options.texture, "scene.texture");
+  check_scene_list(options);
 }
 
 const eval::ResultTable& TableRun::table(const std::string& title_prefix) const {
@@ -86,7 +88,7 @@ const TableDriver& table_driver(const std::string& name) {
 
 std::pair<std::string, std::string> pair_scans(const std::string& label) {
   // "SO-13" -> SO-1, SO-3: a scene prefix, a dash, two single-digit positions.
-  const auto dash = label.find('-');
+  const auto dash = label.rfind('-');
   if (dash == std::string::npos || label.size() != dash + 3)
     throw make_error("pair", label, "expected a pair label like SO-13");
   const std::string prefix = label.substr(0, dash + 1);
@@ -94,12 +96,6 @@ std::pair<std::string, std::string> pair_scans(const std::string& label) {
 }
 
 namespace {
-
-std::string scene_of_label(const std::string& label) {
-  if (label.rfind("SL-", 0) == 0) return "living_room";
-  if (label.rfind("SO-", 0) == 0) return "office";
-  throw make_error("scan", label, "unknown built-in scan label (expected SL-n or SO-n)");
-}
 
 std::string utc_now() {
   const std::time_t now = std::time(nullptr);
@@ -145,22 +141,19 @@ fs::path cached_scan(const std::string& label, const TablesOptions& options, int
   const fs::path cache = options.cache.empty() ? options.out / "scans" : options.cache;
   if (cache.empty()) throw make_error("tables", "cache", "no scan cache folder given");
   fs::create_directories(cache);
-  // The key names everything that changes the scan.
-  const std::string key = fmt::format("{}_{}x{}_n{}_{}_seed{}_tex-{}", label, preset.width, preset.height, every,
-                                      options.noise, options.seed, options.texture);
+  const LabelledScene scene = scene_for_label(label, options);
+  // The key names everything that changes the scan, the code included: a scan rendered by another
+  // revision is never reused (a dirty tree's revision carries a hash of its diff, see
+  // cmake/SourceRevision.cmake).
+  const std::string key = fmt::format("{}_{}_{}x{}_n{}_{}_seed{}_tex-{}_rev-{}", label, scene.key, preset.width,
+                                      preset.height, every, options.noise, options.seed, options.texture,
+                                      source_revision());
   const fs::path dir = cache / key;
   CacheLock lock(cache / (key + ".lock"));
   if (fs::exists(dir / "rig.json")) {
     record_scan_used(dir);
     return dir;
   }
-  scenes::SceneStyle style;
-  style.texture = scenes::texture_density_from_string(options.texture, "texture");
-  const Scene scene = scenes::make_builtin_scene(scene_of_label(label), style);
-  int position = -1;
-  for (std::size_t i = 0; i < scene.positions.size(); ++i)
-    if (scene.positions[i].name == label) position = int(i);
-  if (position < 0) throw make_error("scan", label, "no such position in the built-in " + scene.name);
   // Through the config path, so that the noise name is validated like `panoscan sim --noise`.
   Config config;
   config.set("camera.width", std::to_string(preset.width));
@@ -172,7 +165,7 @@ fs::path cached_scan(const std::string& label, const TablesOptions& options, int
   const SimOptions sim = sim_options_from_config(config);
   config.check_all_used();
   log_info(fmt::format("tables: simulating {} into {}", label, dir.string()));
-  Simulator(scene, position, sim).write_scan(dir, true);
+  Simulator(*scene.scene, scene.position, sim).write_scan(dir, true);
   record_scan_used(dir);
   return dir;
 }
@@ -221,13 +214,22 @@ TableRun run_and_write(const std::string& name, const TablesOptions& options) {
                    {"noise", options.noise},
                    {"seed", options.seed},
                    {"threads", options.threads},
-                   {"scene_texture", options.texture}};
+                   {"scene_texture", options.texture},
+                   {"scenes", options.scenes}};
+  j["scans"] = scan_labels(options);
+  j["pairs"] = pair_labels(options);
+  for (const Claim& c : run.claims)
+    j["claims"].push_back({{"table", c.table}, {"better", c.better}, {"worse", c.worse}, {"statement", c.statement}});
+  if (run.claims.empty()) j["claims"] = nlohmann::json::array();
   j["driver_settings"] = nlohmann::json::parse(run.settings_json);
   for (const auto& t : run.tables) {
     nlohmann::json table;
     table["title"] = t.title;
     table["unit"] = t.unit;
     table["lower_is_better"] = t.lower_is_better;
+    table["decimals"] = t.decimals;
+    table["methods"] = t.methods;  // row and column order ("values" is an object, keyed alphabetically)
+    table["columns"] = t.scans;
     for (std::size_t m = 0; m < t.methods.size(); ++m)
       for (std::size_t s = 0; s < t.scans.size(); ++s) {
         const double v = t.get(t.methods[m], t.scans[s]);
