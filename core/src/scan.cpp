@@ -33,7 +33,6 @@
 #include "panoscan/core/scan.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -50,6 +49,7 @@
 #include "panoscan/core/json_file.h"
 #include "panoscan/core/image_io.h"
 #include "panoscan/core/mesh_io.h"
+#include "panoscan/core/tum_listing.h"
 
 namespace panoscan {
 namespace {
@@ -224,80 +224,11 @@ RigInfo read_rig_file(const fs::path& scan_dir) {
   return rig_from_json(read_text_file(path, "rig file"), path.string());
 }
 
-// ---- TUM listings ("timestamp filename") ----
-
-struct ListingEntry {
-  double timestamp = 0.0;
-  std::string timestamp_text;  // as written, for messages
-  std::string file;            // relative to the camera directory
-  std::size_t line_number = 0;
-};
-
-bool parse_timestamp(const std::string& token, double* value) {
-  errno = 0;
-  char* end = nullptr;
-  const double parsed = std::strtod(token.c_str(), &end);
-  if (token.empty() || end != token.c_str() + token.size() || errno == ERANGE || !std::isfinite(parsed)) return false;
-  *value = parsed;
-  return true;
-}
-
-std::vector<ListingEntry> read_listing(const fs::path& listing_path, const fs::path& camera_dir) {
-  const std::string listing = listing_path.string();
-  std::error_code ec;
-  if (!fs::exists(listing_path, ec)) throw make_error(listing, "", "listing not found");
-  std::ifstream in(listing_path);
-  if (!in) throw make_error(listing, "", "cannot open listing for reading");
-
-  std::vector<ListingEntry> entries;
-  std::string line;
-  std::size_t line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    const std::size_t first = line.find_first_not_of(" \t");
-    if (first == std::string::npos || line[first] == '#') continue;
-    const std::string field = "line " + std::to_string(line_number);
-
-    std::istringstream tokens(line);
-    std::vector<std::string> parts;
-    std::string token;
-    while (tokens >> token) parts.push_back(token);
-    if (parts.size() != 2) {
-      throw make_error(listing, field,
-                       "expected 'timestamp filename', found " + std::to_string(parts.size()) + " fields");
-    }
-    ListingEntry entry;
-    entry.timestamp_text = parts[0];
-    entry.file = parts[1];
-    entry.line_number = line_number;
-    if (!parse_timestamp(parts[0], &entry.timestamp)) {
-      throw make_error(listing, field, "timestamp '" + parts[0] + "' is not a finite number");
-    }
-    if (!entries.empty() && !(entry.timestamp > entries.back().timestamp)) {
-      const char* problem = entry.timestamp == entries.back().timestamp ? "repeats" : "is before";
-      throw make_error(listing, field,
-                       "timestamp " + parts[0] + " " + problem + " the previous one (" + entries.back().timestamp_text +
-                           "); timestamps must strictly increase");
-    }
-    if (!is_safe_relative_path(entry.file)) {
-      throw make_error(listing, field,
-                       "file name '" + entry.file + "' must be a path relative to " + camera_dir.string());
-    }
-    const fs::path image_path = camera_dir / entry.file;
-    if (!fs::is_regular_file(image_path, ec)) {
-      throw make_error(listing, field, "listed file not found: " + image_path.string());
-    }
-    entries.push_back(std::move(entry));
-  }
-  if (in.bad()) throw make_error(listing, "", "error while reading listing");
-  if (entries.empty()) throw make_error(listing, "", "the listing holds no frames");
-  return entries;
-}
+// ---- TUM listings ("timestamp filename"): read_tum_listing (tum_listing.h) ----
 
 // Pairs the two listings of one camera; both must hold exactly the same timestamps.
-std::vector<FrameEntry> pair_listings(const std::vector<ListingEntry>& rgb, const fs::path& rgb_listing,
-                                      const std::vector<ListingEntry>& depth, const fs::path& depth_listing) {
+std::vector<FrameEntry> pair_listings(const std::vector<TumListingEntry>& rgb, const fs::path& rgb_listing,
+                                      const std::vector<TumListingEntry>& depth, const fs::path& depth_listing) {
   std::vector<FrameEntry> frames;
   std::size_t r = 0;
   std::size_t d = 0;
@@ -463,8 +394,8 @@ ScanIndex read_scan_index(const fs::path& scan_dir) {
     const fs::path camera_dir = scan_dir / sensor.name;
     const fs::path rgb_listing = camera_dir / "rgb.txt";
     const fs::path depth_listing = camera_dir / "depth.txt";
-    const std::vector<ListingEntry> rgb = read_listing(rgb_listing, camera_dir);
-    const std::vector<ListingEntry> depth = read_listing(depth_listing, camera_dir);
+    const std::vector<TumListingEntry> rgb = read_tum_listing(rgb_listing, camera_dir);
+    const std::vector<TumListingEntry> depth = read_tum_listing(depth_listing, camera_dir);
     scan.frames.push_back(pair_listings(rgb, rgb_listing, depth, depth_listing));
   }
   return scan;
