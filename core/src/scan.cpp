@@ -8,6 +8,7 @@
 //     "version": 1,                       integer, exactly 1 (other versions are refused)
 //     "description": "simulated: ...",    string, optional (default "")
 //     "reference_sensor": 0,              integer index into "sensors"; its ref_from_cam must be identity
+//     "motion": "rotator",                string, optional (default "rotator"): "rotator" or "handheld"
 //     "sensors": [                        non-empty list
 //       {
 //         "name": "cam0",                 string of letters, digits, '_' and '-', unique, not "groundtruth";
@@ -286,6 +287,14 @@ void check_depth_scale(double depth_scale) {
 
 // ---- rig.json ----
 
+const char* to_string(RigMotion motion) { return motion == RigMotion::kHandheld ? "handheld" : "rotator"; }
+
+RigMotion rig_motion_from_string(const std::string& text, const std::string& origin, const std::string& field) {
+  if (text == "rotator") return RigMotion::kRotator;
+  if (text == "handheld") return RigMotion::kHandheld;
+  throw make_error(origin, field, "expected 'rotator' or 'handheld', found '" + text + "'");
+}
+
 std::string rig_to_json(const RigInfo& rig) {
   validate_rig(rig, "rig");
   json sensors = json::array();
@@ -308,6 +317,7 @@ std::string rig_to_json(const RigInfo& rig) {
   document["version"] = kScanFormatVersion;
   document["description"] = rig.description;
   document["reference_sensor"] = rig.reference_sensor;
+  document["motion"] = to_string(rig.motion);
   document["sensors"] = std::move(sensors);
   // nlohmann writes doubles with enough digits to read back the same value.
   return document.dump(2) + "\n";
@@ -327,11 +337,16 @@ RigInfo rig_from_json(const std::string& text, const std::string& origin) {
     throw make_error(origin, "version",
                      "expected " + std::to_string(kScanFormatVersion) + ", found " + std::to_string(version));
   }
-  reject_unknown_fields(document, {"format", "version", "description", "reference_sensor", "sensors"}, origin, "");
+  reject_unknown_fields(document, {"format", "version", "description", "reference_sensor", "motion", "sensors"}, origin,
+                        "");
 
   RigInfo rig;
   if (document.contains("description")) {
     rig.description = read_string(document["description"], origin, "description");
+  }
+  // Absent in scans written before the field existed: those are all rotator scans.
+  if (document.contains("motion")) {
+    rig.motion = rig_motion_from_string(read_string(document["motion"], origin, "motion"), origin, "motion");
   }
   const long long reference =
       read_integer(require_field(document, "reference_sensor", origin, ""), origin, "reference_sensor");

@@ -42,10 +42,19 @@ struct SensorInfo {
   Rigid3d ref_from_cam = Rigid3d::Identity();
 };
 
+// How the rig moved while it recorded (rig.json "motion", optional, default rotator): on the
+// in-place rotator the method is made for (every simulated scan), or by hand (the usual TUM RGB-D
+// sequence; `import tum` writes handheld by default).
+enum class RigMotion { kRotator, kHandheld };
+const char* to_string(RigMotion motion);  // "rotator", "handheld"
+// Throws Error naming `origin` and `field` for anything but "rotator" or "handheld".
+RigMotion rig_motion_from_string(const std::string& text, const std::string& origin, const std::string& field);
+
 struct RigInfo {
   std::vector<SensorInfo> sensors;
   int reference_sensor = 0;
   std::string description;  // free text (e.g. "simulated: office SO-1")
+  RigMotion motion = RigMotion::kRotator;
 };
 
 struct FrameEntry {
