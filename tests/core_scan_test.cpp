@@ -631,6 +631,40 @@ TEST_F(ScanTest, ExistingScanIsNotOverwrittenUnlessAsked) {
   EXPECT_EQ(entries_of(dir_), std::vector<std::string>{"scan"});
 }
 
+TEST_F(ScanTest, FramesFromFilesAreCopiedOrHardLinkedUnderTheWritersNames) {
+  const fs::path sources = dir_ / "sources";
+  fs::create_directories(sources);
+  write_png(sources / "c.png", make_rgb(0, 3));
+  write_png16(sources / "d.png", make_depth(0, 3));
+  {
+    ScanWriter writer(dir_ / "scan", make_rig(1), false);
+    writer.add_frame_files(0, 1.5, sources / "c.png", sources / "d.png", ScanWriter::FileTransfer::kCopy);
+    writer.add_frame_files(0, 2.5, sources / "c.png", sources / "d.png", ScanWriter::FileTransfer::kHardLink);
+    // The ordering rule of write_frame holds here too.
+    EXPECT_THAT(error_of([&] {
+                  writer.add_frame_files(0, 2.0, sources / "c.png", sources / "d.png", ScanWriter::FileTransfer::kCopy);
+                }),
+                HasSubstr("does not increase"));
+    EXPECT_THAT(error_of([&] {
+                  writer.add_frame_files(0, 3.0, sources / "none.png", sources / "d.png",
+                                         ScanWriter::FileTransfer::kCopy);
+                }),
+                HasSubstr((sources / "none.png").string()));
+    writer.commit();
+  }
+  const ScanIndex scan = read_scan_index(dir_ / "scan");
+  ASSERT_EQ(scan.frames[0].size(), 2u);
+  EXPECT_EQ(scan.frames[0][0].rgb_file, "rgb/1.500000.png");
+  EXPECT_EQ(scan.frames[0][1].depth_file, "depth/2.500000.png");
+  for (std::size_t f = 0; f < 2; ++f) {
+    const RgbdFrame frame = load_frame(scan, 0, f);
+    EXPECT_EQ(frame.rgb.data, make_rgb(0, 3).data);
+    EXPECT_EQ(depth_to_png_units(frame.depth, 5000.0).data, make_depth(0, 3).data);
+  }
+  EXPECT_EQ(fs::hard_link_count(dir_ / "scan" / "cam0" / "rgb" / "1.500000.png"), 1u);
+  EXPECT_EQ(fs::hard_link_count(dir_ / "scan" / "cam0" / "depth" / "2.500000.png"), 2u);
+}
+
 TEST_F(ScanTest, FramesOfOneSensorMustIncreaseInTime) {
   ScanWriter writer(dir_ / "scan", make_rig(), false);
   writer.write_frame(1, 2.0, make_rgb(1, 0), make_depth(1, 0));

@@ -527,6 +527,10 @@ struct ScanWriter::Impl {
     }
   }
 
+  std::string reserve_timestamp(int sensor, double timestamp);
+  void add_entry(int sensor, const std::string& timestamp_text, const std::string& rgb_file,
+                 const std::string& depth_file);
+
   void create_directory(const fs::path& path) const {
     std::error_code ec;
     fs::create_directories(path, ec);
@@ -559,15 +563,44 @@ ScanWriter::ScanWriter(const fs::path& scan_dir, const RigInfo& rig, bool overwr
 
 ScanWriter::~ScanWriter() = default;  // AtomicDirectory removes the temporary directory unless committed
 
+// Checks that `timestamp` may follow the sensor's last frame and reserves it; returns its 6-decimal
+// text. Called with the mutex held.
+std::string ScanWriter::Impl::reserve_timestamp(int sensor, double timestamp) {
+  const SensorInfo& info = sensor_info(sensor);
+  if (!std::isfinite(timestamp)) throw make_error(origin(), info.name, "frame timestamp is not finite");
+  // The file name and the listing hold the timestamp with 6 decimals, so the ordering is
+  // checked on that text: two frames 1e-7 s apart would otherwise share a file name.
+  const std::string timestamp_text = format_timestamp(timestamp);
+  const double written_timestamp = std::strtod(timestamp_text.c_str(), nullptr);
+  SensorState& state = sensors[sensor];
+  if (state.has_timestamp && !(written_timestamp > state.last_timestamp)) {
+    throw make_error(origin(), info.name,
+                     "frame timestamp " + timestamp_text + " does not increase (previous " +
+                         format_timestamp(state.last_timestamp) +
+                         "; frames of one sensor must arrive in time order, timestamps kept to 6 decimals)");
+  }
+  // Reserve the timestamp now so that the ordering holds even while the images are encoded.
+  state.has_timestamp = true;
+  state.last_timestamp = written_timestamp;
+  return timestamp_text;
+}
+
+void ScanWriter::Impl::add_entry(int sensor, const std::string& timestamp_text, const std::string& rgb_file,
+                                 const std::string& depth_file) {
+  FrameEntry entry;
+  entry.timestamp = std::strtod(timestamp_text.c_str(), nullptr);
+  entry.rgb_file = rgb_file;
+  entry.depth_file = depth_file;
+  sensors[sensor].frames.push_back(std::move(entry));
+}
+
 void ScanWriter::write_frame(int sensor, double timestamp, const ImageU8& rgb, const ImageU16& depth) {
   std::string timestamp_text;
-  fs::path rgb_path;
-  fs::path depth_path;
+  fs::path camera_dir;
   {
     std::lock_guard<std::mutex> lock(impl_->mutex);
     impl_->check_not_committed();
     const SensorInfo& info = impl_->sensor_info(sensor);
-    if (!std::isfinite(timestamp)) throw make_error(impl_->origin(), info.name, "frame timestamp is not finite");
     check_image_shape(rgb, 3, impl_->origin(), info.name + " rgb image");
     if (rgb.width != info.intrinsics.width || rgb.height != info.intrinsics.height) {
       throw make_error(impl_->origin(), info.name + " rgb image size",
@@ -575,35 +608,56 @@ void ScanWriter::write_frame(int sensor, double timestamp, const ImageU8& rgb, c
                            size_text(rgb.width, rgb.height));
     }
     impl_->check_depth_image(depth, info, "depth image");
-
-    // The file name and the listing hold the timestamp with 6 decimals, so the ordering is
-    // checked on that text: two frames 1e-7 s apart would otherwise share a file name.
-    timestamp_text = format_timestamp(timestamp);
-    const double written_timestamp = std::strtod(timestamp_text.c_str(), nullptr);
-    Impl::SensorState& state = impl_->sensors[sensor];
-    if (state.has_timestamp && !(written_timestamp > state.last_timestamp)) {
-      throw make_error(impl_->origin(), info.name,
-                       "frame timestamp " + timestamp_text + " does not increase (previous " +
-                           format_timestamp(state.last_timestamp) +
-                           "; frames of one sensor must arrive in time order, timestamps kept to 6 decimals)");
-    }
-    // Reserve the timestamp now so that the ordering holds even while the images are encoded.
-    state.has_timestamp = true;
-    state.last_timestamp = written_timestamp;
-    const fs::path camera_dir = impl_->directory->temp_path() / info.name;
-    rgb_path = camera_dir / "rgb" / (timestamp_text + ".png");
-    depth_path = camera_dir / "depth" / (timestamp_text + ".png");
+    timestamp_text = impl_->reserve_timestamp(sensor, timestamp);
+    camera_dir = impl_->directory->temp_path() / info.name;
   }
-
-  write_png(rgb_path, rgb, impl_->png_compression);
-  write_png16(depth_path, depth, impl_->png_compression);
+  const std::string rgb_file = "rgb/" + timestamp_text + ".png";
+  const std::string depth_file = "depth/" + timestamp_text + ".png";
+  write_png(camera_dir / rgb_file, rgb, impl_->png_compression);
+  write_png16(camera_dir / depth_file, depth, impl_->png_compression);
 
   std::lock_guard<std::mutex> lock(impl_->mutex);
-  FrameEntry entry;
-  entry.timestamp = std::strtod(timestamp_text.c_str(), nullptr);
-  entry.rgb_file = "rgb/" + timestamp_text + ".png";
-  entry.depth_file = "depth/" + timestamp_text + ".png";
-  impl_->sensors[sensor].frames.push_back(std::move(entry));
+  impl_->add_entry(sensor, timestamp_text, rgb_file, depth_file);
+}
+
+void ScanWriter::add_frame_files(int sensor, double timestamp, const fs::path& rgb_source,
+                                 const fs::path& depth_source, FileTransfer transfer) {
+  std::string timestamp_text;
+  fs::path camera_dir;
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->check_not_committed();
+    timestamp_text = impl_->reserve_timestamp(sensor, timestamp);
+    camera_dir = impl_->directory->temp_path() / impl_->rig.sensors[sensor].name;
+  }
+  std::string rgb_extension = rgb_source.extension().string();
+  const bool plain_extension =
+      rgb_extension.size() >= 2 && rgb_extension.size() <= 6 &&
+      std::all_of(rgb_extension.begin() + 1, rgb_extension.end(), [](char c) {
+        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9');
+      });
+  if (!plain_extension) rgb_extension = ".png";
+  const std::string rgb_file = "rgb/" + timestamp_text + rgb_extension;
+  const std::string depth_file = "depth/" + timestamp_text + ".png";
+  auto transfer_file = [&](const fs::path& source, const std::string& file) {
+    const fs::path destination = camera_dir / file;
+    std::error_code ec;
+    if (transfer == FileTransfer::kHardLink) {
+      fs::create_hard_link(source, destination, ec);
+      if (ec) {
+        throw make_error(source.string(), "",
+                         "cannot hard-link into " + impl_->origin() + ": " + ec.message() +
+                             " (another file system? import without hard links to copy)");
+      }
+    } else {
+      fs::copy_file(source, destination, fs::copy_options::overwrite_existing, ec);
+      if (ec) throw make_error(source.string(), "", "cannot copy into " + impl_->origin() + ": " + ec.message());
+    }
+  };
+  transfer_file(rgb_source, rgb_file);
+  transfer_file(depth_source, depth_file);
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->add_entry(sensor, timestamp_text, rgb_file, depth_file);
 }
 
 void ScanWriter::write_clean_depth(int sensor, double timestamp, const ImageU16& depth) {

@@ -98,6 +98,12 @@ class ScanWriter {
   ~ScanWriter();
 
   void write_frame(int sensor, double timestamp, const ImageU8& rgb, const ImageU16& depth);
+  // A frame whose images exist as files already (an import): copied, or hard-linked, into place
+  // under the names write_frame gives (the colour file keeps its extension). The caller checks
+  // their contents (sizes, 8-bit colour, 16-bit depth); the same ordering rule as write_frame.
+  enum class FileTransfer { kCopy, kHardLink };
+  void add_frame_files(int sensor, double timestamp, const std::filesystem::path& rgb_file,
+                       const std::filesystem::path& depth_file, FileTransfer transfer);
   void write_clean_depth(int sensor, double timestamp, const ImageU16& depth);
   void write_groundtruth_trajectory(int sensor, const std::vector<StampedPose>& poses);
   void write_groundtruth_file(const std::string& name, const std::string& bytes);  // e.g. rig_truth.json
