@@ -1,7 +1,8 @@
 // The scan format (docs/ARCHITECTURE.md §5): one directory per scanning position.
 //
 //   rig.json                   format name + version, sensors (intrinsics, image size, depth scale,
-//                              calibrated extrinsics ref_from_cam), reference sensor index
+//                              calibrated extrinsics ref_from_cam), reference sensor index, motion
+//   import.json                only in scans made by `panoscan import` (tum_import.h): provenance
 //   camK/rgb/<ts>.png          8-bit colour, registered to depth
 //   camK/depth/<ts>.png        16-bit depth, z along the optical axis, depth_scale units per metre (5000)
 //   camK/rgb.txt, depth.txt    TUM listings "timestamp filename" (filename relative to camK/)
