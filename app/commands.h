@@ -120,6 +120,21 @@ struct ReconIntegrateArguments {
 };
 void run_recon_integrate(const ReconIntegrateArguments& arguments);
 
+// import tum (commands_import.cpp): TUM RGB-D sequences, one per sensor, into a scan folder
+// (core/tum_import.h).
+struct ImportTumArguments {
+  std::vector<std::string> inputs;      // sensor K = the K-th --input
+  std::string out, extrinsics;
+  std::vector<std::string> intrinsics;  // "fx,fy,cx,cy": once, or once per input
+  std::vector<std::string> cameras;     // presets fr1|fr2|fr3|ros: once, or once per input
+  std::string motion = "handheld";
+  double depth_scale = 5000.0;
+  double max_dt = 0.02;
+  bool hard_link = false;
+  bool overwrite = false;
+};
+void run_import_tum(const ImportTumArguments& arguments);
+
 struct DemoArguments {
   std::string out = "panoscan-demo";
   int threads = -1;

@@ -93,6 +93,32 @@ int main(int argc, char** argv) {
   add_sim_options(sim_cmd, sim_args, true);
   sim_cmd->add_option("--out", sim_args.out, "output scan directory")->required();
 
+  // import tum
+  CLI::App* import_cmd = app.add_subcommand("import", "bring your own data: recordings into a scan folder");
+  import_cmd->require_subcommand(1);
+  ImportTumArguments import_tum_args;
+  CLI::App* import_tum = import_cmd->add_subcommand(
+      "tum", "TUM RGB-D sequences (rgb.txt, depth.txt, groundtruth.txt), one per sensor, into a scan folder");
+  import_tum->add_option("--input", import_tum_args.inputs, "TUM sequence folder(s); sensor K = the K-th")
+      ->required()
+      ->expected(1, -1);
+  import_tum->add_option("--out", import_tum_args.out, "output scan folder")->required();
+  import_tum->add_option("--intrinsics", import_tum_args.intrinsics,
+                         "fx,fy,cx,cy in pixels (once for all inputs, or once per input)");
+  import_tum->add_option("--camera", import_tum_args.cameras,
+                         "intrinsics preset fr1, fr2, fr3 or ros (default: from the folder name rgbd_dataset_freiburgN_*)");
+  import_tum->add_option("--extrinsics", import_tum_args.extrinsics,
+                         "JSON {\"ref_from_cam\": [one 4x4 matrix per input]} (required for several inputs)");
+  import_tum->add_option("--depth-scale", import_tum_args.depth_scale, "depth PNG units per metre")
+      ->capture_default_str();
+  import_tum->add_option("--max-dt", import_tum_args.max_dt,
+                         "seconds: colour-depth association and ground-truth interpolation window")
+      ->capture_default_str();
+  import_tum->add_option("--motion", import_tum_args.motion, "rig.json motion: handheld or rotator")
+      ->capture_default_str();
+  import_tum->add_flag("--hard-link", import_tum_args.hard_link, "hard-link the images instead of copying them");
+  import_tum->add_flag("--overwrite", import_tum_args.overwrite, "replace an existing output folder");
+
   // demo
   DemoArguments demo_args;
   CLI::App* demo_cmd =
@@ -269,6 +295,8 @@ int main(int argc, char** argv) {
       run_recon_register(register_args);
     } else if (*recon_integrate) {
       run_recon_integrate(integrate_args);
+    } else if (*import_tum) {
+      run_import_tum(import_tum_args);
     } else if (*tables_cmd) {
       run_tables(tables_args);
     } else if (*demo_cmd) {

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -474,6 +475,76 @@ TEST_F(IoTest, TrajectoryWriteIntoAnUnwritableFolderFails) {
   const fs::path path = blocker / "traj.txt";
   const std::string message = error_of([&] { write_tum_trajectory(path, make_trajectory()); });
   EXPECT_THAT(message, HasSubstr(path.string()));
+}
+
+TEST_F(IoTest, PngHeaderGivesSizeBitDepthAndChannelsWithoutDecoding) {
+  const fs::path depth = dir_ / "depth.png";
+  write_png16(depth, ImageU16(7, 5, 1, 1234));
+  PngHeader header = read_png_header(depth);
+  EXPECT_EQ(header.width, 7);
+  EXPECT_EQ(header.height, 5);
+  EXPECT_EQ(header.bit_depth, 16);
+  EXPECT_EQ(header.channels, 1);
+  const fs::path colour = dir_ / "colour.png";
+  write_png(colour, ImageU8(4, 3, 3, 9));
+  header = read_png_header(colour);
+  EXPECT_EQ(header.width, 4);
+  EXPECT_EQ(header.height, 3);
+  EXPECT_EQ(header.bit_depth, 8);
+  EXPECT_EQ(header.channels, 3);
+
+  const fs::path text = write_text("text.png", "not a png at all");
+  EXPECT_THAT(error_of([&] { read_png_header(text); }), HasSubstr(text.string() + ": format: not a PNG"));
+  const std::string bytes = [&] {
+    std::ifstream in(depth, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }();
+  const fs::path truncated = write_text("truncated.png", bytes.substr(0, 20));
+  EXPECT_THAT(error_of([&] { read_png_header(truncated); }), HasSubstr(truncated.string() + ": header: truncated"));
+  EXPECT_THAT(error_of([&] { read_png_header(dir_ / "missing.png"); }), HasSubstr("missing.png: image file not found"));
+}
+
+StampedPose stamped(double t, double angle, const Eigen::Vector3d& translation) {
+  StampedPose pose;
+  pose.timestamp = t;
+  pose.world_from_cam = make_rigid(Eigen::Quaterniond(Eigen::AngleAxisd(angle, Eigen::Vector3d(0.2, -1.0, 0.4).normalized())),
+                                   translation);
+  return pose;
+}
+
+TEST(InterpolateTrajectory, ExactStampsLerpAndSlerpBetweenAndNothingOutsideOrAcrossGaps) {
+  const std::vector<StampedPose> poses = {stamped(1.00, 0.1, {0, 0, 0}), stamped(1.01, 0.3, {1, 2, 3}),
+                                          stamped(1.50, 0.5, {0, 0, 1})};
+  const std::vector<double> times = {1.00, 1.0025, 1.01, 0.999, 1.2, 1.50, 1.51};
+  const std::vector<std::optional<Rigid3d>> result = interpolate_trajectory(poses, times, 0.02);
+  ASSERT_EQ(result.size(), times.size());
+  ASSERT_TRUE(result[0] && result[1] && result[2] && result[5]);
+  EXPECT_TRUE(result[0]->isApprox(poses[0].world_from_cam, 1e-15));
+  EXPECT_TRUE(result[2]->isApprox(poses[1].world_from_cam, 1e-15));
+  EXPECT_TRUE(result[5]->isApprox(poses[2].world_from_cam, 1e-15));
+  // A quarter of the way: translation a quarter, rotation angle 0.1 + 0.25 * 0.2 about the same axis.
+  EXPECT_NEAR((result[1]->translation() - Eigen::Vector3d(0.25, 0.5, 0.75)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(Eigen::AngleAxisd(result[1]->linear()).angle(), 0.15, 1e-12);
+  EXPECT_FALSE(result[3]);  // before the first pose
+  EXPECT_FALSE(result[4]);  // in the 0.49 s gap
+  EXPECT_FALSE(result[6]);  // after the last pose
+  // A wide enough window bridges the gap.
+  EXPECT_TRUE(interpolate_trajectory(poses, {1.2}, 0.5)[0].has_value());
+  EXPECT_TRUE(interpolate_trajectory({}, {1.0}, 0.02)[0] == std::nullopt);
+}
+
+TEST(InterpolateTrajectory, TakesTheShortRotationAndRefusesUnsortedPosesOrABadWindow) {
+  // Quaternions of opposite sign (the same rotation): no detour through the long way round.
+  StampedPose a = stamped(0.0, 0.2, {0, 0, 0});
+  StampedPose b = stamped(1.0, 0.2, {0, 0, 0});
+  const Eigen::Quaterniond q(b.world_from_cam.linear());
+  const Eigen::Quaterniond negated(-q.w(), -q.x(), -q.y(), -q.z());
+  b.world_from_cam = make_rigid(negated, Eigen::Vector3d::Zero());
+  const auto mid = interpolate_trajectory({a, b}, {0.5}, 1.0)[0];
+  ASSERT_TRUE(mid);
+  EXPECT_TRUE(mid->isApprox(a.world_from_cam, 1e-12));
+  EXPECT_THAT(error_of([&] { interpolate_trajectory({b, a}, {0.5}, 1.0); }), HasSubstr("strictly increase"));
+  EXPECT_THAT(error_of([&] { interpolate_trajectory({a, b}, {0.5}, -1.0); }), HasSubstr("max_dt"));
 }
 
 }  // namespace

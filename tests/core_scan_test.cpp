@@ -177,6 +177,7 @@ void write_listing(const fs::path& path, const std::vector<std::string>& lines) 
 void expect_same_rig(const RigInfo& a, const RigInfo& b) {
   EXPECT_EQ(a.description, b.description);
   EXPECT_EQ(a.reference_sensor, b.reference_sensor);
+  EXPECT_EQ(a.motion, b.motion);
   ASSERT_EQ(a.sensors.size(), b.sensors.size());
   for (std::size_t s = 0; s < a.sensors.size(); ++s) {
     const SensorInfo& x = a.sensors[s];
@@ -291,6 +292,18 @@ TEST(RigJson, RoundTrip) {
   expect_same_rig(rig_from_json(rig_to_json(back), "rig.json"), rig);
 }
 
+TEST(RigJson, MotionIsRotatorUnlessSaidAndRoundTrips) {
+  RigInfo rig = make_rig(1);
+  EXPECT_EQ(rig.motion, RigMotion::kRotator);
+  EXPECT_THAT(rig_to_json(rig), HasSubstr("\"motion\": \"rotator\""));
+  rig.motion = RigMotion::kHandheld;
+  EXPECT_EQ(rig_from_json(rig_to_json(rig), "rig.json").motion, RigMotion::kHandheld);
+  // Scans written before the field existed have none: they are rotator scans.
+  json document = json::parse(rig_to_json(rig));
+  document.erase("motion");
+  EXPECT_EQ(rig_from_json(document.dump(), "rig.json").motion, RigMotion::kRotator);
+}
+
 TEST(RigJson, AnotherReferenceSensorAndNoDescription) {
   RigInfo rig = make_rig(2);
   rig.sensors[0].ref_from_cam = rig.sensors[1].ref_from_cam.inverse();
@@ -318,6 +331,9 @@ TEST(RigJson, BadRigFilesAreRejectedNamingTheField) {
       {"other version", [](json& j) { j["version"] = 2; }, "rig.json: version: ", "expected 1, found 2"},
       {"version as text", [](json& j) { j["version"] = "1"; }, "rig.json: version: ", "expected an integer"},
       {"no sensors", [](json& j) { j["sensors"] = json::array(); }, "rig.json: sensors: ", "no sensors"},
+      {"unknown motion", [](json& j) { j["motion"] = "robot"; }, "rig.json: motion: ",
+       "expected 'rotator' or 'handheld', found 'robot'"},
+      {"motion not a string", [](json& j) { j["motion"] = 1; }, "rig.json: motion: ", "expected a string"},
       {"sensors not a list", [](json& j) { j["sensors"] = 3; }, "rig.json: sensors: ", "expected a list"},
       {"sensors missing", [](json& j) { j.erase("sensors"); }, "rig.json: sensors: ", "missing field"},
       {"reference out of range", [](json& j) { j["reference_sensor"] = 3; },
@@ -613,6 +629,40 @@ TEST_F(ScanTest, ExistingScanIsNotOverwrittenUnlessAsked) {
   }
   EXPECT_EQ(read_scan_index(scan_dir).rig.sensors.size(), 1u);
   EXPECT_EQ(entries_of(dir_), std::vector<std::string>{"scan"});
+}
+
+TEST_F(ScanTest, FramesFromFilesAreCopiedOrHardLinkedUnderTheWritersNames) {
+  const fs::path sources = dir_ / "sources";
+  fs::create_directories(sources);
+  write_png(sources / "c.png", make_rgb(0, 3));
+  write_png16(sources / "d.png", make_depth(0, 3));
+  {
+    ScanWriter writer(dir_ / "scan", make_rig(1), false);
+    writer.add_frame_files(0, 1.5, sources / "c.png", sources / "d.png", ScanWriter::FileTransfer::kCopy);
+    writer.add_frame_files(0, 2.5, sources / "c.png", sources / "d.png", ScanWriter::FileTransfer::kHardLink);
+    // The ordering rule of write_frame holds here too.
+    EXPECT_THAT(error_of([&] {
+                  writer.add_frame_files(0, 2.0, sources / "c.png", sources / "d.png", ScanWriter::FileTransfer::kCopy);
+                }),
+                HasSubstr("does not increase"));
+    EXPECT_THAT(error_of([&] {
+                  writer.add_frame_files(0, 3.0, sources / "none.png", sources / "d.png",
+                                         ScanWriter::FileTransfer::kCopy);
+                }),
+                HasSubstr((sources / "none.png").string()));
+    writer.commit();
+  }
+  const ScanIndex scan = read_scan_index(dir_ / "scan");
+  ASSERT_EQ(scan.frames[0].size(), 2u);
+  EXPECT_EQ(scan.frames[0][0].rgb_file, "rgb/1.500000.png");
+  EXPECT_EQ(scan.frames[0][1].depth_file, "depth/2.500000.png");
+  for (std::size_t f = 0; f < 2; ++f) {
+    const RgbdFrame frame = load_frame(scan, 0, f);
+    EXPECT_EQ(frame.rgb.data, make_rgb(0, 3).data);
+    EXPECT_EQ(depth_to_png_units(frame.depth, 5000.0).data, make_depth(0, 3).data);
+  }
+  EXPECT_EQ(fs::hard_link_count(dir_ / "scan" / "cam0" / "rgb" / "1.500000.png"), 1u);
+  EXPECT_EQ(fs::hard_link_count(dir_ / "scan" / "cam0" / "depth" / "2.500000.png"), 2u);
 }
 
 TEST_F(ScanTest, FramesOfOneSensorMustIncreaseInTime) {

@@ -118,6 +118,44 @@ void write_png16(const fs::path& path, const ImageU16& image, int compression) {
              compression <= 1 ? cv::IMWRITE_PNG_STRATEGY_RLE : cv::IMWRITE_PNG_STRATEGY_DEFAULT);
 }
 
+std::string image_file_format(const fs::path& path) { return sniff_image_format(path); }
+
+PngHeader read_png_header(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw make_error(path.string(), "", "image file not found");
+  if (sniff_image_format(path) != "PNG") throw make_error(path.string(), "format", "not a PNG file");
+  // Signature (8 bytes), then the IHDR chunk: length 13, "IHDR", width, height (big-endian 32-bit),
+  // bit depth, colour type, compression, filter, interlace.
+  unsigned char head[29] = {};
+  std::ifstream in(path, std::ios::binary);
+  in.read(reinterpret_cast<char*>(head), sizeof head);
+  if (in.gcount() != std::streamsize(sizeof head) || std::memcmp(head + 12, "IHDR", 4) != 0)
+    throw make_error(path.string(), "header", "truncated PNG header (no IHDR chunk)");
+  auto be32 = [&](int at) {
+    return (std::uint32_t(head[at]) << 24) | (std::uint32_t(head[at + 1]) << 16) | (std::uint32_t(head[at + 2]) << 8) |
+           std::uint32_t(head[at + 3]);
+  };
+  const std::uint32_t width = be32(16), height = be32(20);
+  if (width == 0 || height == 0 || width > 0x7fffffffu || height > 0x7fffffffu)
+    throw make_error(path.string(), "header", "invalid PNG size " + std::to_string(width) + "x" + std::to_string(height));
+  PngHeader header;
+  header.width = int(width);
+  header.height = int(height);
+  header.bit_depth = head[24];
+  switch (head[25]) {
+    case 0: header.channels = 1; break;
+    case 2: header.channels = 3; break;
+    case 3: header.channels = 3; break;
+    case 4: header.channels = 2; break;
+    case 6: header.channels = 4; break;
+    default: throw make_error(path.string(), "header", "invalid PNG colour type " + std::to_string(head[25]));
+  }
+  if (header.bit_depth != 1 && header.bit_depth != 2 && header.bit_depth != 4 && header.bit_depth != 8 &&
+      header.bit_depth != 16)
+    throw make_error(path.string(), "header", "invalid PNG bit depth " + std::to_string(header.bit_depth));
+  return header;
+}
+
 ImageU8 read_rgb(const fs::path& path) {
   cv::Mat mat = decode(path, cv::IMREAD_UNCHANGED, false);
   if (mat.depth() != CV_8U) throw make_error(path.string(), "bit depth", "expected an 8-bit colour image");

@@ -8,6 +8,7 @@
 //     "version": 1,                       integer, exactly 1 (other versions are refused)
 //     "description": "simulated: ...",    string, optional (default "")
 //     "reference_sensor": 0,              integer index into "sensors"; its ref_from_cam must be identity
+//     "motion": "rotator",                string, optional (default "rotator"): "rotator" or "handheld"
 //     "sensors": [                        non-empty list
 //       {
 //         "name": "cam0",                 string of letters, digits, '_' and '-', unique, not "groundtruth";
@@ -33,7 +34,6 @@
 #include "panoscan/core/scan.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -50,6 +50,7 @@
 #include "panoscan/core/json_file.h"
 #include "panoscan/core/image_io.h"
 #include "panoscan/core/mesh_io.h"
+#include "panoscan/core/tum_listing.h"
 
 namespace panoscan {
 namespace {
@@ -224,80 +225,11 @@ RigInfo read_rig_file(const fs::path& scan_dir) {
   return rig_from_json(read_text_file(path, "rig file"), path.string());
 }
 
-// ---- TUM listings ("timestamp filename") ----
-
-struct ListingEntry {
-  double timestamp = 0.0;
-  std::string timestamp_text;  // as written, for messages
-  std::string file;            // relative to the camera directory
-  std::size_t line_number = 0;
-};
-
-bool parse_timestamp(const std::string& token, double* value) {
-  errno = 0;
-  char* end = nullptr;
-  const double parsed = std::strtod(token.c_str(), &end);
-  if (token.empty() || end != token.c_str() + token.size() || errno == ERANGE || !std::isfinite(parsed)) return false;
-  *value = parsed;
-  return true;
-}
-
-std::vector<ListingEntry> read_listing(const fs::path& listing_path, const fs::path& camera_dir) {
-  const std::string listing = listing_path.string();
-  std::error_code ec;
-  if (!fs::exists(listing_path, ec)) throw make_error(listing, "", "listing not found");
-  std::ifstream in(listing_path);
-  if (!in) throw make_error(listing, "", "cannot open listing for reading");
-
-  std::vector<ListingEntry> entries;
-  std::string line;
-  std::size_t line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    const std::size_t first = line.find_first_not_of(" \t");
-    if (first == std::string::npos || line[first] == '#') continue;
-    const std::string field = "line " + std::to_string(line_number);
-
-    std::istringstream tokens(line);
-    std::vector<std::string> parts;
-    std::string token;
-    while (tokens >> token) parts.push_back(token);
-    if (parts.size() != 2) {
-      throw make_error(listing, field,
-                       "expected 'timestamp filename', found " + std::to_string(parts.size()) + " fields");
-    }
-    ListingEntry entry;
-    entry.timestamp_text = parts[0];
-    entry.file = parts[1];
-    entry.line_number = line_number;
-    if (!parse_timestamp(parts[0], &entry.timestamp)) {
-      throw make_error(listing, field, "timestamp '" + parts[0] + "' is not a finite number");
-    }
-    if (!entries.empty() && !(entry.timestamp > entries.back().timestamp)) {
-      const char* problem = entry.timestamp == entries.back().timestamp ? "repeats" : "is before";
-      throw make_error(listing, field,
-                       "timestamp " + parts[0] + " " + problem + " the previous one (" + entries.back().timestamp_text +
-                           "); timestamps must strictly increase");
-    }
-    if (!is_safe_relative_path(entry.file)) {
-      throw make_error(listing, field,
-                       "file name '" + entry.file + "' must be a path relative to " + camera_dir.string());
-    }
-    const fs::path image_path = camera_dir / entry.file;
-    if (!fs::is_regular_file(image_path, ec)) {
-      throw make_error(listing, field, "listed file not found: " + image_path.string());
-    }
-    entries.push_back(std::move(entry));
-  }
-  if (in.bad()) throw make_error(listing, "", "error while reading listing");
-  if (entries.empty()) throw make_error(listing, "", "the listing holds no frames");
-  return entries;
-}
+// ---- TUM listings ("timestamp filename"): read_tum_listing (tum_listing.h) ----
 
 // Pairs the two listings of one camera; both must hold exactly the same timestamps.
-std::vector<FrameEntry> pair_listings(const std::vector<ListingEntry>& rgb, const fs::path& rgb_listing,
-                                      const std::vector<ListingEntry>& depth, const fs::path& depth_listing) {
+std::vector<FrameEntry> pair_listings(const std::vector<TumListingEntry>& rgb, const fs::path& rgb_listing,
+                                      const std::vector<TumListingEntry>& depth, const fs::path& depth_listing) {
   std::vector<FrameEntry> frames;
   std::size_t r = 0;
   std::size_t d = 0;
@@ -355,6 +287,14 @@ void check_depth_scale(double depth_scale) {
 
 // ---- rig.json ----
 
+const char* to_string(RigMotion motion) { return motion == RigMotion::kHandheld ? "handheld" : "rotator"; }
+
+RigMotion rig_motion_from_string(const std::string& text, const std::string& origin, const std::string& field) {
+  if (text == "rotator") return RigMotion::kRotator;
+  if (text == "handheld") return RigMotion::kHandheld;
+  throw make_error(origin, field, "expected 'rotator' or 'handheld', found '" + text + "'");
+}
+
 std::string rig_to_json(const RigInfo& rig) {
   validate_rig(rig, "rig");
   json sensors = json::array();
@@ -377,6 +317,7 @@ std::string rig_to_json(const RigInfo& rig) {
   document["version"] = kScanFormatVersion;
   document["description"] = rig.description;
   document["reference_sensor"] = rig.reference_sensor;
+  document["motion"] = to_string(rig.motion);
   document["sensors"] = std::move(sensors);
   // nlohmann writes doubles with enough digits to read back the same value.
   return document.dump(2) + "\n";
@@ -396,11 +337,16 @@ RigInfo rig_from_json(const std::string& text, const std::string& origin) {
     throw make_error(origin, "version",
                      "expected " + std::to_string(kScanFormatVersion) + ", found " + std::to_string(version));
   }
-  reject_unknown_fields(document, {"format", "version", "description", "reference_sensor", "sensors"}, origin, "");
+  reject_unknown_fields(document, {"format", "version", "description", "reference_sensor", "motion", "sensors"}, origin,
+                        "");
 
   RigInfo rig;
   if (document.contains("description")) {
     rig.description = read_string(document["description"], origin, "description");
+  }
+  // Absent in scans written before the field existed: those are all rotator scans.
+  if (document.contains("motion")) {
+    rig.motion = rig_motion_from_string(read_string(document["motion"], origin, "motion"), origin, "motion");
   }
   const long long reference =
       read_integer(require_field(document, "reference_sensor", origin, ""), origin, "reference_sensor");
@@ -463,8 +409,8 @@ ScanIndex read_scan_index(const fs::path& scan_dir) {
     const fs::path camera_dir = scan_dir / sensor.name;
     const fs::path rgb_listing = camera_dir / "rgb.txt";
     const fs::path depth_listing = camera_dir / "depth.txt";
-    const std::vector<ListingEntry> rgb = read_listing(rgb_listing, camera_dir);
-    const std::vector<ListingEntry> depth = read_listing(depth_listing, camera_dir);
+    const std::vector<TumListingEntry> rgb = read_tum_listing(rgb_listing, camera_dir);
+    const std::vector<TumListingEntry> depth = read_tum_listing(depth_listing, camera_dir);
     scan.frames.push_back(pair_listings(rgb, rgb_listing, depth, depth_listing));
   }
   return scan;
@@ -581,6 +527,10 @@ struct ScanWriter::Impl {
     }
   }
 
+  std::string reserve_timestamp(int sensor, double timestamp);
+  void add_entry(int sensor, const std::string& timestamp_text, const std::string& rgb_file,
+                 const std::string& depth_file);
+
   void create_directory(const fs::path& path) const {
     std::error_code ec;
     fs::create_directories(path, ec);
@@ -613,15 +563,44 @@ ScanWriter::ScanWriter(const fs::path& scan_dir, const RigInfo& rig, bool overwr
 
 ScanWriter::~ScanWriter() = default;  // AtomicDirectory removes the temporary directory unless committed
 
+// Checks that `timestamp` may follow the sensor's last frame and reserves it; returns its 6-decimal
+// text. Called with the mutex held.
+std::string ScanWriter::Impl::reserve_timestamp(int sensor, double timestamp) {
+  const SensorInfo& info = sensor_info(sensor);
+  if (!std::isfinite(timestamp)) throw make_error(origin(), info.name, "frame timestamp is not finite");
+  // The file name and the listing hold the timestamp with 6 decimals, so the ordering is
+  // checked on that text: two frames 1e-7 s apart would otherwise share a file name.
+  const std::string timestamp_text = format_timestamp(timestamp);
+  const double written_timestamp = std::strtod(timestamp_text.c_str(), nullptr);
+  SensorState& state = sensors[sensor];
+  if (state.has_timestamp && !(written_timestamp > state.last_timestamp)) {
+    throw make_error(origin(), info.name,
+                     "frame timestamp " + timestamp_text + " does not increase (previous " +
+                         format_timestamp(state.last_timestamp) +
+                         "; frames of one sensor must arrive in time order, timestamps kept to 6 decimals)");
+  }
+  // Reserve the timestamp now so that the ordering holds even while the images are encoded.
+  state.has_timestamp = true;
+  state.last_timestamp = written_timestamp;
+  return timestamp_text;
+}
+
+void ScanWriter::Impl::add_entry(int sensor, const std::string& timestamp_text, const std::string& rgb_file,
+                                 const std::string& depth_file) {
+  FrameEntry entry;
+  entry.timestamp = std::strtod(timestamp_text.c_str(), nullptr);
+  entry.rgb_file = rgb_file;
+  entry.depth_file = depth_file;
+  sensors[sensor].frames.push_back(std::move(entry));
+}
+
 void ScanWriter::write_frame(int sensor, double timestamp, const ImageU8& rgb, const ImageU16& depth) {
   std::string timestamp_text;
-  fs::path rgb_path;
-  fs::path depth_path;
+  fs::path camera_dir;
   {
     std::lock_guard<std::mutex> lock(impl_->mutex);
     impl_->check_not_committed();
     const SensorInfo& info = impl_->sensor_info(sensor);
-    if (!std::isfinite(timestamp)) throw make_error(impl_->origin(), info.name, "frame timestamp is not finite");
     check_image_shape(rgb, 3, impl_->origin(), info.name + " rgb image");
     if (rgb.width != info.intrinsics.width || rgb.height != info.intrinsics.height) {
       throw make_error(impl_->origin(), info.name + " rgb image size",
@@ -629,35 +608,56 @@ void ScanWriter::write_frame(int sensor, double timestamp, const ImageU8& rgb, c
                            size_text(rgb.width, rgb.height));
     }
     impl_->check_depth_image(depth, info, "depth image");
-
-    // The file name and the listing hold the timestamp with 6 decimals, so the ordering is
-    // checked on that text: two frames 1e-7 s apart would otherwise share a file name.
-    timestamp_text = format_timestamp(timestamp);
-    const double written_timestamp = std::strtod(timestamp_text.c_str(), nullptr);
-    Impl::SensorState& state = impl_->sensors[sensor];
-    if (state.has_timestamp && !(written_timestamp > state.last_timestamp)) {
-      throw make_error(impl_->origin(), info.name,
-                       "frame timestamp " + timestamp_text + " does not increase (previous " +
-                           format_timestamp(state.last_timestamp) +
-                           "; frames of one sensor must arrive in time order, timestamps kept to 6 decimals)");
-    }
-    // Reserve the timestamp now so that the ordering holds even while the images are encoded.
-    state.has_timestamp = true;
-    state.last_timestamp = written_timestamp;
-    const fs::path camera_dir = impl_->directory->temp_path() / info.name;
-    rgb_path = camera_dir / "rgb" / (timestamp_text + ".png");
-    depth_path = camera_dir / "depth" / (timestamp_text + ".png");
+    timestamp_text = impl_->reserve_timestamp(sensor, timestamp);
+    camera_dir = impl_->directory->temp_path() / info.name;
   }
-
-  write_png(rgb_path, rgb, impl_->png_compression);
-  write_png16(depth_path, depth, impl_->png_compression);
+  const std::string rgb_file = "rgb/" + timestamp_text + ".png";
+  const std::string depth_file = "depth/" + timestamp_text + ".png";
+  write_png(camera_dir / rgb_file, rgb, impl_->png_compression);
+  write_png16(camera_dir / depth_file, depth, impl_->png_compression);
 
   std::lock_guard<std::mutex> lock(impl_->mutex);
-  FrameEntry entry;
-  entry.timestamp = std::strtod(timestamp_text.c_str(), nullptr);
-  entry.rgb_file = "rgb/" + timestamp_text + ".png";
-  entry.depth_file = "depth/" + timestamp_text + ".png";
-  impl_->sensors[sensor].frames.push_back(std::move(entry));
+  impl_->add_entry(sensor, timestamp_text, rgb_file, depth_file);
+}
+
+void ScanWriter::add_frame_files(int sensor, double timestamp, const fs::path& rgb_source,
+                                 const fs::path& depth_source, FileTransfer transfer) {
+  std::string timestamp_text;
+  fs::path camera_dir;
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->check_not_committed();
+    timestamp_text = impl_->reserve_timestamp(sensor, timestamp);
+    camera_dir = impl_->directory->temp_path() / impl_->rig.sensors[sensor].name;
+  }
+  std::string rgb_extension = rgb_source.extension().string();
+  const bool plain_extension =
+      rgb_extension.size() >= 2 && rgb_extension.size() <= 6 &&
+      std::all_of(rgb_extension.begin() + 1, rgb_extension.end(), [](char c) {
+        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9');
+      });
+  if (!plain_extension) rgb_extension = ".png";
+  const std::string rgb_file = "rgb/" + timestamp_text + rgb_extension;
+  const std::string depth_file = "depth/" + timestamp_text + ".png";
+  auto transfer_file = [&](const fs::path& source, const std::string& file) {
+    const fs::path destination = camera_dir / file;
+    std::error_code ec;
+    if (transfer == FileTransfer::kHardLink) {
+      fs::create_hard_link(source, destination, ec);
+      if (ec) {
+        throw make_error(source.string(), "",
+                         "cannot hard-link into " + impl_->origin() + ": " + ec.message() +
+                             " (another file system? import without hard links to copy)");
+      }
+    } else {
+      fs::copy_file(source, destination, fs::copy_options::overwrite_existing, ec);
+      if (ec) throw make_error(source.string(), "", "cannot copy into " + impl_->origin() + ": " + ec.message());
+    }
+  };
+  transfer_file(rgb_source, rgb_file);
+  transfer_file(depth_source, depth_file);
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->add_entry(sensor, timestamp_text, rgb_file, depth_file);
 }
 
 void ScanWriter::write_clean_depth(int sensor, double timestamp, const ImageU16& depth) {

@@ -7,6 +7,7 @@
 
 #include "panoscan/core/trajectory.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -98,6 +99,40 @@ std::vector<StampedPose> read_tum_trajectory(const std::filesystem::path& path) 
   }
   if (in.bad()) throw make_error(file, "", "error while reading trajectory file");
   return poses;
+}
+
+std::vector<std::optional<Rigid3d>> interpolate_trajectory(const std::vector<StampedPose>& poses,
+                                                           const std::vector<double>& times, double max_dt) {
+  if (!std::isfinite(max_dt) || max_dt < 0.0) {
+    throw make_error("", "max_dt", "expected a finite number of seconds >= 0, found " + std::to_string(max_dt));
+  }
+  for (std::size_t i = 1; i < poses.size(); ++i) {
+    if (!(poses[i - 1].timestamp < poses[i].timestamp)) {
+      throw make_error("", "pose " + std::to_string(i), "trajectory timestamps must strictly increase");
+    }
+  }
+  std::vector<std::optional<Rigid3d>> result(times.size());
+  for (std::size_t q = 0; q < times.size(); ++q) {
+    const double t = times[q];
+    if (!std::isfinite(t)) continue;
+    const auto after = std::lower_bound(poses.begin(), poses.end(), t,
+                                        [](const StampedPose& pose, double time) { return pose.timestamp < time; });
+    if (after != poses.end() && after->timestamp == t) {
+      result[q] = after->world_from_cam;
+      continue;
+    }
+    if (after == poses.begin() || after == poses.end()) continue;
+    const StampedPose& a = *(after - 1);
+    const StampedPose& b = *after;
+    if (t - a.timestamp > max_dt || b.timestamp - t > max_dt) continue;
+    const double s = (t - a.timestamp) / (b.timestamp - a.timestamp);
+    const Eigen::Quaterniond qa(a.world_from_cam.linear());
+    const Eigen::Quaterniond qb(b.world_from_cam.linear());
+    const Eigen::Vector3d translation =
+        (1.0 - s) * a.world_from_cam.translation() + s * b.world_from_cam.translation();
+    result[q] = make_rigid(qa.slerp(s, qb).normalized(), translation);
+  }
+  return result;
 }
 
 void write_tum_trajectory(const std::filesystem::path& path, const std::vector<StampedPose>& poses) {

@@ -22,6 +22,20 @@ ImageU8 read_rgb(const std::filesystem::path& path);
 // Reads a 16-bit single-channel PNG. Throws if it is not a PNG (by content) or not 16-bit single-channel.
 ImageU16 read_png16(const std::filesystem::path& path);
 
+// The image container by its first bytes: "PNG", "JPEG", "BMP", "TIFF", "WebP", "PNM" (the formats
+// read_rgb reads), or "" for anything else or a file that cannot be read.
+std::string image_file_format(const std::filesystem::path& path);
+
+// A PNG's size and sample format from its IHDR chunk, without decoding the pixels.
+struct PngHeader {
+  int width = 0, height = 0;
+  int bit_depth = 0;  // bits per sample: 1, 2, 4, 8 or 16
+  int channels = 0;   // 1 grey, 2 grey + alpha, 3 RGB, 4 RGBA; a palette image counts as 3 (it decodes to RGB)
+};
+// Throws Error naming the file when it is missing, not a PNG (by content) or its header is
+// truncated or invalid.
+PngHeader read_png_header(const std::filesystem::path& path);
+
 // Float EXR with named channels (e.g. {"R","G","B"} or {"Z"}); image.channels == names.size().
 void write_exr(const std::filesystem::path& path, const ImageF32& image, const std::vector<std::string>& channel_names);
 // Reads the named channels of a float EXR (throws naming the file and channel if one is missing).

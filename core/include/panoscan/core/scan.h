@@ -1,7 +1,8 @@
 // The scan format (docs/ARCHITECTURE.md §5): one directory per scanning position.
 //
 //   rig.json                   format name + version, sensors (intrinsics, image size, depth scale,
-//                              calibrated extrinsics ref_from_cam), reference sensor index
+//                              calibrated extrinsics ref_from_cam), reference sensor index, motion
+//   import.json                only in scans made by `panoscan import` (tum_import.h): provenance
 //   camK/rgb/<ts>.png          8-bit colour, registered to depth
 //   camK/depth/<ts>.png        16-bit depth, z along the optical axis, depth_scale units per metre (5000)
 //   camK/rgb.txt, depth.txt    TUM listings "timestamp filename" (filename relative to camK/)
@@ -42,10 +43,19 @@ struct SensorInfo {
   Rigid3d ref_from_cam = Rigid3d::Identity();
 };
 
+// How the rig moved while it recorded (rig.json "motion", optional, default rotator): on the
+// in-place rotator the method is made for (every simulated scan), or by hand (the usual TUM RGB-D
+// sequence; `import tum` writes handheld by default).
+enum class RigMotion { kRotator, kHandheld };
+const char* to_string(RigMotion motion);  // "rotator", "handheld"
+// Throws Error naming `origin` and `field` for anything but "rotator" or "handheld".
+RigMotion rig_motion_from_string(const std::string& text, const std::string& origin, const std::string& field);
+
 struct RigInfo {
   std::vector<SensorInfo> sensors;
   int reference_sensor = 0;
   std::string description;  // free text (e.g. "simulated: office SO-1")
+  RigMotion motion = RigMotion::kRotator;
 };
 
 struct FrameEntry {
@@ -89,6 +99,12 @@ class ScanWriter {
   ~ScanWriter();
 
   void write_frame(int sensor, double timestamp, const ImageU8& rgb, const ImageU16& depth);
+  // A frame whose images exist as files already (an import): copied, or hard-linked, into place
+  // under the names write_frame gives (the colour file keeps its extension). The caller checks
+  // their contents (sizes, 8-bit colour, 16-bit depth); the same ordering rule as write_frame.
+  enum class FileTransfer { kCopy, kHardLink };
+  void add_frame_files(int sensor, double timestamp, const std::filesystem::path& rgb_file,
+                       const std::filesystem::path& depth_file, FileTransfer transfer);
   void write_clean_depth(int sensor, double timestamp, const ImageU16& depth);
   void write_groundtruth_trajectory(int sensor, const std::vector<StampedPose>& poses);
   void write_groundtruth_file(const std::string& name, const std::string& bytes);  // e.g. rig_truth.json
