@@ -97,7 +97,6 @@ std::vector<Column> fig8_columns(const TablesOptions& options) {
 
 TableRun run_fig8(const TablesOptions& options) {
   const SizePreset preset = size_preset(options.size);
-  const bool full = preset.name == "full";
   // The paper's whole sweep at both sizes (n = 1: about 3000 frames; its solve takes minutes at
   // 320x240, so the quick size sweeps one scan).
   const int n_min = 1;

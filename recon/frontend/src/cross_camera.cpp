@@ -305,7 +305,6 @@ Eigen::Matrix3d estimate_band_correction(const Relation& relation, const CameraC
   const int radius = search_radius_px(scan, relation, options);
   const int side = 2 * radius + 1;
   const PatchShape shape = patch_shape(relation, options);
-  const auto& in_a = scan.rig.sensors[relation.sensor_a].intrinsics;
   const auto& in_b = scan.rig.sensors[relation.sensor_b].intrinsics;
   // Each anchor votes for the shift of its own distinct correlation peak: summing correlations
   // instead lets shifts that put more patches inside b, and ramps (which correlate at any shift
