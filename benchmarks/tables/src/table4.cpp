@@ -11,6 +11,7 @@
 // A second set of tables repeats this on panoramas from tracked poses (stage 1 as a user runs it).
 #include <chrono>
 #include <cmath>
+#include <map>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -27,11 +28,20 @@ namespace panoscan::tables {
 
 namespace {
 
+// Eq. 9's terms examined (issue 17, item 7): each candidate changes one term of GICP (Ours).
+enum class Variant {
+  kPaper,          // the paper's Eq. 9: sigma_z the measurements' spread, sigma_phi = sigma_theta = 0.5 px
+  kStandardError,  // sigma_z / sqrt(n): the fused pixel's standard error instead of the spread
+  kNoAngular,      // sigma_phi = sigma_theta = 0: the depth term alone
+  kUnitSurface,    // Segal et al.'s unit surface covariance diag(eps, 1, 1) (m^2) instead of the metric one
+};
+
 struct Row {
   std::string name;
   IcpMethod method;
   DepthCovarianceModel covariance;  // the measured variance, the Handa model's ("Def."), or one value
   int outside;                      // 0: ours; 1: PCL's GICP; 2: Open3D's GICP
+  Variant variant = Variant::kPaper;
 };
 
 constexpr auto kMeasured = DepthCovarianceModel::kMeasured;
@@ -49,8 +59,22 @@ const std::vector<Row>& rows() {
       {"GICP (Ours, constant sigma_z; ablation)", IcpMethod::kGicpMeasured, DepthCovarianceModel::kConstant, 0},
       {"PCL GICP (outside reference)", IcpMethod::kGicp, kMeasured, 1},
       {"Open3D GICP (outside reference)", IcpMethod::kGicp, kMeasured, 2},
+      // Candidates (ground-truth poses only): one term of Eq. 9 changed at a time.
+      {"GICP (Ours, sigma_z / sqrt(n); candidate)", IcpMethod::kGicpMeasured, kMeasured, 0, Variant::kStandardError},
+      {"GICP (Ours, no angular term; candidate)", IcpMethod::kGicpMeasured, kMeasured, 0, Variant::kNoAngular},
+      {"GICP (unit surface covariance; candidate)", IcpMethod::kGicp, kMeasured, 0, Variant::kUnitSurface},
+      {"GICP (Ours, unit surface covariance; candidate)", IcpMethod::kGicpMeasured, kMeasured, 0,
+       Variant::kUnitSurface},
   };
   return r;
+}
+
+PanoramaCloudOptions with_variant(PanoramaCloudOptions options, DepthCovarianceModel covariance, Variant variant) {
+  options.covariance = covariance;
+  if (variant == Variant::kStandardError) options.standard_error = true;
+  if (variant == Variant::kNoAngular) options.angular_sigma_px = 0.0;
+  if (variant == Variant::kUnitSurface) options.surface.metric_scale = false;
+  return options;
 }
 
 const char* kTruthRow = "Ground-truth relative pose (noise floor, reference)";
@@ -94,22 +118,24 @@ void add_table4(const TablesOptions& options, bool tracked, TableRun& run) {
           fmt::format("{} ({} poses): the ORB guess failed ({}); no registration", pair, poses, guess.failure));
       continue;
     }
-    const RegistrationCloud source_measured = panorama_registration_cloud(source, registration.cloud);
-    const RegistrationCloud target_measured = panorama_registration_cloud(target, registration.cloud);
-    // The other covariance models change only the measurement covariances (same points, surfaces).
-    auto with_covariance = [&](const Panorama& panorama, const RegistrationCloud& measured,
-                               DepthCovarianceModel model) {
-      PanoramaCloudOptions cloud_options = registration.cloud;
-      cloud_options.covariance = model;
-      RegistrationCloud cloud = measured;
-      RegistrationCloud other = panorama_registration_cloud(panorama, cloud_options);
-      cloud.measurement_covariances = std::move(other.measurement_covariances);
-      return cloud;
+    // The clouds of each covariance model and variant: the same points (the filters read only the
+    // measured sigma_z and the count), other covariances.
+    std::map<std::pair<int, int>, std::pair<RegistrationCloud, RegistrationCloud>> clouds;
+    auto clouds_for = [&](DepthCovarianceModel model, Variant variant)
+        -> const std::pair<RegistrationCloud, RegistrationCloud>& {
+      const std::pair<int, int> key{int(model), int(variant)};
+      auto it = clouds.find(key);
+      if (it == clouds.end()) {
+        const PanoramaCloudOptions cloud_options = with_variant(registration.cloud, model, variant);
+        it = clouds
+                 .emplace(key, std::make_pair(panorama_registration_cloud(source, cloud_options),
+                                              panorama_registration_cloud(target, cloud_options)))
+                 .first;
+      }
+      return it->second;
     };
-    const RegistrationCloud source_handa = with_covariance(source, source_measured, DepthCovarianceModel::kHandaModel);
-    const RegistrationCloud target_handa = with_covariance(target, target_measured, DepthCovarianceModel::kHandaModel);
-    const RegistrationCloud source_constant = with_covariance(source, source_measured, DepthCovarianceModel::kConstant);
-    const RegistrationCloud target_constant = with_covariance(target, target_measured, DepthCovarianceModel::kConstant);
+    const RegistrationCloud& source_measured = clouds_for(kMeasured, Variant::kPaper).first;
+    const RegistrationCloud& target_measured = clouds_for(kMeasured, Variant::kPaper).second;
 
     // The pair's cloud: every usable pixel of both; the target's part does not change with the method.
     const auto mesh = stage2::scene_mesh(source_label, options);
@@ -138,14 +164,10 @@ void add_table4(const TablesOptions& options, bool tracked, TableRun& run) {
     };
 
     for (const Row& row : rows()) {
+      if (tracked && row.variant != Variant::kPaper) continue;
       IcpOptions icp = registration.icp;
       icp.method = row.method;
-      const RegistrationCloud& s = row.covariance == kMeasured                           ? source_measured
-                                   : row.covariance == DepthCovarianceModel::kHandaModel ? source_handa
-                                                                                         : source_constant;
-      const RegistrationCloud& t = row.covariance == kMeasured                           ? target_measured
-                                   : row.covariance == DepthCovarianceModel::kHandaModel ? target_handa
-                                                                                         : target_constant;
+      const auto& [s, t] = clouds_for(row.covariance, row.variant);
       IcpResult result;
       const auto start = std::chrono::steady_clock::now();
       try {

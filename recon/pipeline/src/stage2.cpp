@@ -61,7 +61,7 @@ RegistrationCloud panorama_registration_cloud(const Panorama& panorama, const Pa
   const Equirectangular& pano = panorama.pano;
   const int width = pano.width(), height = pano.height;
   const int stride = std::max(1, options.pixel_stride);
-  const double sigma_angle = 0.5 * M_PI / height;
+  const double sigma_angle = options.angular_sigma_px * M_PI / height;  // Eq. 9's sigma_phi = sigma_theta
   const double constant_sigma = options.covariance != DepthCovarianceModel::kConstant ? 0.0
                                 : options.constant_sigma_m > 0                        ? options.constant_sigma_m
                                                                : median_usable_sigma(panorama, options);
@@ -75,7 +75,8 @@ RegistrationCloud panorama_registration_cloud(const Panorama& panorama, const Pa
       const double sigma_measured = std::sqrt(std::max(0.0, double(panorama.variance.at(u, v))));
       if (count < options.min_observations || sigma_measured > options.max_sigma_m) continue;
       const double sigma = options.covariance == DepthCovarianceModel::kMeasured
-                               ? std::max(sigma_measured, 1e-4)  // a pixel is never exact
+                               ? std::max(options.standard_error ? sigma_measured / std::sqrt(count) : sigma_measured,
+                                          1e-4)  // a pixel is never exact
                            : options.covariance == DepthCovarianceModel::kHandaModel ? handa_model_sigma(depth)
                                                                                      : std::max(constant_sigma, 1e-4);
       cloud.points.push_back(pano.direction(u, v) * depth);
@@ -258,6 +259,11 @@ PairRegistrationOptions pair_registration_options_from_config(Config& config) {
   cloud.pixel_stride = config.get_int("registration.pixel_stride", cloud.pixel_stride, 1, 64);
   cloud.min_observations = config.get_int("registration.min_observations", cloud.min_observations, 1, 1000);
   cloud.max_sigma_m = config.get_double("registration.max_sigma_m", cloud.max_sigma_m, 1e-4, 10.0);
+  cloud.angular_sigma_px = config.get_double("registration.angular_sigma_px", cloud.angular_sigma_px, 0.0, 100.0);
+  cloud.standard_error = config.get_string("registration.sigma_z", "spread", {"spread", "standard-error"}) ==
+                         "standard-error";
+  cloud.surface.metric_scale =
+      config.get_string("registration.surface_covariance", "metric", {"metric", "unit"}) == "metric";
   cloud.surface.threads = icp.threads;
   options.features.seed = config.get_u64("seed", 1);
   return options;

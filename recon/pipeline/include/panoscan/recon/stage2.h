@@ -34,6 +34,14 @@ struct PanoramaCloudOptions {
   // kConstant: every pixel's sigma_z; 0 = the median measured sigma_z of the usable pixels (the same
   // overall scale as the measured variance, no per-pixel information).
   double constant_sigma_m = 0.0;
+  // Eq. 9's S-frame measurement covariance diag(sigma_phi^2, sigma_theta^2, sigma_z^2) (issue 17,
+  // item 7 examines each term; the defaults are the paper's):
+  // sigma_phi = sigma_theta = angular_sigma_px * pi / H (the paper: 0.5 pixel, "rasterization").
+  double angular_sigma_px = 0.5;
+  // kMeasured: sigma_z is the spread of the pixel's measurements about the solved depth (the
+  // paper's §4 "variance of the radial distance"); true = that spread / sqrt(count), the standard
+  // error of a mean of `count` independent measurements (what the fused depth's own error would be).
+  bool standard_error = false;
   SurfaceOptions surface;
 };
 

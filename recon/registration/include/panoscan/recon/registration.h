@@ -64,6 +64,9 @@ struct SurfaceOptions {
   double plane_epsilon = 1e-3;  // GICP's epsilon: normal variance relative to the in-plane ones
   // The surface covariance is U diag(eps, 1, 1) U^T scaled by the in-plane variance of the
   // neighbourhood (m^2), so that it adds to the measurement covariance in consistent units.
+  // false = Segal et al.'s unit form U diag(eps, 1, 1) U^T (1 m^2 in the plane, as Open3D's and
+  // PCL's GICP): beside it any measurement covariance of millimetres is negligible.
+  bool metric_scale = true;
   int threads = 0;
 };
 
