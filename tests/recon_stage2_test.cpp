@@ -199,6 +199,7 @@ TEST(Stage2, PoseGraphOverFourOfficePositionsLowersTheWorstInconsistency) {
   }
   SceneOptions options;
   options.registration.cloud.pixel_stride = 2;
+  options.registration.ambiguity_margin = 0.1;
   SceneResult result;
   register_scene_panoramas(panoramas, names, options, result);
   for (const PairEdge& e : result.edges) {
@@ -317,17 +318,23 @@ TEST(Stage2Commands, IntegrateAndSceneUseOnePlacementRule) {
     write_panorama(folders.back(), synthetic_panorama(renderer, pose_at(scene, positions[k], yaws[k]), 256, 30 + k),
                    false);
   }
+  // SO-2 -> SO-1 is a diagonal pair of the point-symmetric office: its mirrored pose's overlap lies
+  // near the default ambiguity margin (0.897 against 0.751, margin 0.15, on one machine; above it on
+  // another, the renders differing in the last bits). This test is about placement, not the
+  // ambiguity check (Stage2.APointSymmetricPairIsRefusedAsAmbiguous... above): a narrower margin, the
+  // same in both paths.
+  const std::string settings = " --set registration.pixel_stride=2 --set registration.ambiguity_margin=0.1";
   std::vector<std::string> registrations;
   for (const auto& [source, target] : std::vector<std::pair<int, int>>{{1, 0}, {2, 0}, {2, 1}}) {
     registrations.push_back((tmp / (std::to_string(source) + "-to-" + std::to_string(target) + ".json")).string());
     const RunResult r = run_panoscan("recon register --source " + folders[source] + " --target " + folders[target] +
-                                     " --set registration.pixel_stride=2 --out " + registrations.back());
+                                     settings + " --out " + registrations.back());
     ASSERT_EQ(r.exit_code, 0) << r.output;
   }
   const fs::path placement_file = tmp / "placement.json";
   const RunResult m = run_panoscan("recon integrate --panoramas " + folders[0] + " " + folders[1] + " " + folders[2] +
                                    " --poses " + registrations[0] + " " + registrations[1] + " " + registrations[2] +
-                                   " --set registration.pixel_stride=2 --placement-out " + placement_file.string() +
+                                   settings + " --placement-out " + placement_file.string() +
                                    " --out " + (tmp / "cloud.ply").string());
   ASSERT_EQ(m.exit_code, 0) << m.output;
   nlohmann::json placement;
@@ -338,6 +345,7 @@ TEST(Stage2Commands, IntegrateAndSceneUseOnePlacementRule) {
   for (const std::string& folder : folders) panoramas.push_back(read_panorama(folder));
   SceneOptions options;
   options.registration.cloud.pixel_stride = 2;
+  options.registration.ambiguity_margin = 0.1;
   SceneResult result;
   register_scene_panoramas(panoramas, names, options, result);
   ASSERT_EQ(result.world_from_panorama.size(), 3u);

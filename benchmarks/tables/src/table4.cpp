@@ -30,7 +30,8 @@ namespace {
 
 // Eq. 9's terms examined (issue 17, item 7): each candidate changes one term of GICP (Ours).
 enum class Variant {
-  kPaper,          // the paper's Eq. 9: sigma_z the measurements' spread, sigma_phi = sigma_theta = 0.5 px
+  kPaper,          // Eq. 9 as the default: sigma_z the measurements' spread, sigma_phi = sigma_theta = 0.5 px,
+                   // the metric surface covariance
   kStandardError,  // sigma_z / sqrt(n): the fused pixel's standard error instead of the spread
   kNoAngular,      // sigma_phi = sigma_theta = 0: the depth term alone
   kUnitSurface,    // Segal et al.'s unit surface covariance diag(eps, 1, 1) (m^2) instead of the metric one

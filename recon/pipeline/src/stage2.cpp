@@ -217,8 +217,13 @@ PairRegistration register_panorama_pair(const Panorama& source, const Panorama& 
 
 PanoramaPoints panorama_integration_points(const Panorama& panorama, const Rigid3d& world_from_panorama,
                                            const PanoramaCloudOptions& options) {
+  // Eq. 10-11 weigh each point by its covariance as a position uncertainty in m^2: the surface
+  // shape scaled by the neighbourhood's spread plus Eq. 9's measurement covariance. Registration's
+  // unit-form surface covariance (1 m^2 in the plane) is a cost-function device, not an uncertainty.
+  PanoramaCloudOptions metric = options;
+  metric.surface.metric_scale = true;
   std::vector<std::size_t> pixels;
-  const RegistrationCloud cloud = panorama_registration_cloud(panorama, options, &pixels);
+  const RegistrationCloud cloud = panorama_registration_cloud(panorama, metric, &pixels);
   PanoramaPoints points;
   points.world_from_panorama = world_from_panorama;
   points.points = cloud.points;
@@ -263,7 +268,8 @@ PairRegistrationOptions pair_registration_options_from_config(Config& config) {
   cloud.standard_error = config.get_string("registration.sigma_z", "spread", {"spread", "standard-error"}) ==
                          "standard-error";
   cloud.surface.metric_scale =
-      config.get_string("registration.surface_covariance", "metric", {"metric", "unit"}) == "metric";
+      config.get_string("registration.surface_covariance", cloud.surface.metric_scale ? "metric" : "unit",
+                        {"unit", "metric"}) == "metric";
   cloud.surface.threads = icp.threads;
   options.features.seed = config.get_u64("seed", 1);
   return options;
