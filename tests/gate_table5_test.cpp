@@ -16,6 +16,7 @@
 #include "gate_util.h"
 #include "panoscan/core/version.h"
 #include "panoscan/eval/report.h"
+#include "panoscan/eval/statistics.h"
 #include "panoscan/tables/tables.h"
 
 using namespace panoscan;
@@ -51,9 +52,23 @@ TEST(GateTable5, MapBeatsAverageBeatsAlignOnly) {
   EXPECT_LE(map, average);
 }
 
-TEST(GateTable5, MeasuredVarianceBeatsAConstantInMap) {
-  const eval::ResultTable& rmse = table5_run().table("Table 5:");
-  EXPECT_LT(rmse.get("Align + MAP", kPair), rmse.get("Align + MAP (constant sigma_z; ablation)", kPair));
+TEST(GateTable5, MeasuredVarianceBeatsAConstantInMapOverSeeds) {
+  // Thinner than the seed spread on one seed (0.024 ± 0.034 mm over seeds 1-2 before issue 17), so
+  // gated as a paired statement over seeds 1-3 (seeds 2-3 in memory, about 30 s more): the mean
+  // difference is positive and it holds on at least two of the three.
+  std::vector<double> map, constant;
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    tables::TablesOptions options = test::gate_options();
+    options.seed = seed;
+    const tables::TableRun run = seed == 1 ? table5_run() : tables::table_driver("table5").run(options);
+    map.push_back(run.table("Table 5:").get("Align + MAP", kPair));
+    constant.push_back(run.table("Table 5:").get("Align + MAP (constant sigma_z; ablation)", kPair));
+  }
+  const eval::PairedComparison c = eval::compare_paired(map, constant, true);
+  std::cout << "MAP vs constant sigma_z: difference " << c.difference.mean << " mm, holds " << c.holds << " of " << c.n
+            << "\n";
+  EXPECT_GT(c.difference.mean, 0.0);
+  EXPECT_GE(c.holds, 2);
 }
 
 TEST(GateTable5, RecordNamesTheCodeThatMadeItAndItsScans) {

@@ -52,9 +52,12 @@ PanoramaPoints render_points(const Renderer& renderer, const Eigen::Vector3d& ce
           equirectangular_point_covariance(phi, theta, noisy, 0.5 * M_PI / pano.height, sigma));
       points.colours.push_back({100, 150, 200});
     }
+  // As panorama_integration_points: the metric surface covariance (a position uncertainty).
   RegistrationCloud surface;
   surface.points = points.points;
-  prepare_surface(surface, Eigen::Vector3d::Zero(), SurfaceOptions{});
+  SurfaceOptions metric;
+  metric.metric_scale = true;
+  prepare_surface(surface, Eigen::Vector3d::Zero(), metric);
   for (std::size_t i = 0; i < points.points.size(); ++i) points.covariances[i] += surface.surface_covariances[i];
   return points;
 }

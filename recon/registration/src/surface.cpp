@@ -55,9 +55,9 @@ void prepare_surface(RegistrationCloud& cloud, const Eigen::Vector3d& viewpoint,
         cloud.normals[i] = normal;
         const double total = values.sum();
         cloud.curvature[i] = total > 0 ? float(values[0] / total) : 0.f;
-        // GICP: the point may slide within its plane but not across it. metric_scale (the
-        // default): scaled by the neighbourhood's in-plane variance (m^2); otherwise Segal et
-        // al.'s unit form (registration.h compares the two).
+        // GICP: the point may slide within its plane but not across it: Segal et al.'s unit form
+        // by default; metric_scale: scaled by the neighbourhood's in-plane variance (m^2).
+        // registration.h compares the two.
         const double in_plane = options.metric_scale ? std::max(0.5 * (values[1] + values[2]), 1e-10) : 1.0;
         const Eigen::Vector3d shape(options.plane_epsilon * in_plane, in_plane, in_plane);
         cloud.surface_covariances[i] = vectors * shape.asDiagonal() * vectors.transpose();

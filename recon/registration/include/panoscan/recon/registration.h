@@ -62,17 +62,17 @@ struct RegistrationCloud {
 struct SurfaceOptions {
   int neighbours = 20;          // k nearest neighbours for the local plane
   double plane_epsilon = 1e-3;  // GICP's epsilon: normal variance relative to the in-plane ones
-  // true: the plane shape U diag(eps, 1, 1) U^T scaled by the neighbourhood's in-plane variance
-  // (m^2), so that Eq. 9's measurement covariance adds in the same units. The normal variance is
-  // then eps times a few mm^2, the measurement covariance dominates, and its angular term (half a
-  // pixel: 8 mm at 2.5 m, H = 512) downweights every obliquely seen surface.
-  // false: Segal et al.'s unit form U diag(eps, 1, 1) U^T in m^2 (as Open3D's and PCL's GICP), the
-  // form the paper names for Eq. 9's surface part; the measurement covariance then reweights by a
-  // few per cent. Measured over seeds 1-6 (quick, SO-13; README "Table 4: what the measured variance
-  // does") the unit form registers 2.5x closer for GICP (Ours) and makes Ours beat plain GICP; it
-  // is not yet the default because it changes which poses the ambiguity check of
-  // register_panorama_pair refuses (stage2.h), whose margin was measured with this form.
-  bool metric_scale = true;
+  // false (the default): Segal et al.'s unit form U diag(eps, 1, 1) U^T in m^2 (as Open3D's and
+  // PCL's GICP), the form the paper names for Eq. 9's surface part; the measurement covariance
+  // then reweights the correspondences by a few per cent along the normal (eps = 1e-3 m^2, a 3 cm
+  // deviation, against sigma_z of a few mm).
+  // true: the shape scaled by the neighbourhood's in-plane variance (m^2; the default before issue
+  // 17, "so that the units agree"). The normal variance is then eps times a few mm^2, the measurement
+  // covariance dominates, and its angular term (half a pixel: 8 mm at 2.5 m, H = 512) downweights
+  // every obliquely seen surface: over seeds 1-6 (quick, SO-13; README "Table 4: what the measured
+  // variance does") GICP (Ours) registered 2.5x further from the truth than with the unit form, and
+  // worse than plain GICP. Integration (Eq. 10-11) uses the metric form as a position uncertainty.
+  bool metric_scale = false;
   int threads = 0;
 };
 
