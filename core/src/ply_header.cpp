@@ -164,6 +164,8 @@ double BodyReader::read(Type type, const std::string& property) {
     if (is_integer_type(type) && std::isfinite(value) && value != std::floor(value))
       throw make_error(file_, where(property),
                        "'" + std::string(first, std::min<std::ptrdiff_t>(last - first, 40)) + "' is not an integer");
+    // The declared type decides the value, as in a binary file: "0.1" of a float property is float(0.1).
+    if (type == Type::kFloat32) return static_cast<float>(value);
     return value;
   }
   const std::size_t size = type_size(type);
