@@ -3,9 +3,12 @@
 // cloud) read back by read_cloud_file (core/cloud_file.h). PCL appears in this test only.
 
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <limits>
 
 #include <gtest/gtest.h>
+#include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 #include <pcl/point_cloud.h>
@@ -46,7 +49,9 @@ pcl::PointCloud<PointWithSigma> organised_cloud() {
   return cloud;
 }
 
-void expect_same_points(const pcl::PointCloud<PointWithSigma>& written, const CloudFile& read, bool sigma) {
+// `nan_written`: the file holds the invalid points as NaN (dropped by the reader), not left out.
+void expect_same_points(const pcl::PointCloud<PointWithSigma>& written, const CloudFile& read, bool sigma,
+                        bool nan_written = true) {
   std::size_t k = 0, invalid = 0;
   for (const PointWithSigma& p : written) {
     if (!std::isfinite(p.x)) {
@@ -62,7 +67,7 @@ void expect_same_points(const pcl::PointCloud<PointWithSigma>& written, const Cl
     ++k;
   }
   EXPECT_EQ(k, read.points.size()) << read.path;
-  EXPECT_EQ(invalid, read.dropped_invalid) << read.path;
+  EXPECT_EQ(nan_written ? invalid : 0, read.dropped_invalid) << read.path;
 }
 
 TEST(CloudFilePcl, PcdOfEveryDataKindFromPclsWriter) {
@@ -97,13 +102,23 @@ TEST(CloudFilePcl, PlyWithCameraAndRangeGridFromPclsWriter) {
     p.r = std::uint8_t(i), p.g = 7, p.b = 200;
     p.normal_x = 0, p.normal_y = 0, p.normal_z = 1, p.curvature = 0.5f;
   }
-  const fs::path ascii = dir / "a.ply", binary = dir / "b.ply";
+  const fs::path ascii = dir / "a.ply", binary = dir / "b.ply", grid = dir / "grid.ply";
+  // With its camera element (and an empty face element): the NaN points are written.
   ASSERT_EQ(pcl::io::savePLYFile(ascii.string(), cloud, false), 0);
   ASSERT_EQ(pcl::io::savePLYFile(binary.string(), cloud, true), 0);
-  for (const fs::path& path : {ascii, binary}) {
+  // Without the camera: an organised cloud's valid points and a range_grid element after them.
+  pcl::PCLPointCloud2 blob;
+  pcl::toPCLPointCloud2(cloud, blob);
+  ASSERT_EQ(pcl::io::savePLYFile(grid.string(), blob, Eigen::Vector4f::Zero(), Eigen::Quaternionf::Identity(), true, false),
+            0);
+  for (const fs::path& path : {ascii, binary, grid}) {
+    std::ifstream in(path, std::ios::binary);
+    const std::string bytes(std::istreambuf_iterator<char>(in), {});
+    const std::string header = bytes.substr(0, bytes.find("end_header"));
+    EXPECT_NE(header.find(path == grid ? "element range_grid" : "element camera"), std::string::npos) << header;
     const CloudFile read = read_cloud_file(path);
     EXPECT_EQ(read.uncertainty, "");
-    expect_same_points(source, read, false);
+    expect_same_points(source, read, false, path != grid);
   }
 }
 
