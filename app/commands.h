@@ -96,11 +96,13 @@ struct ReconSceneArguments {
 void run_recon_scene(const ReconSceneArguments& arguments);
 
 // recon register / recon integrate (commands_stage2.cpp): stage 2 on panorama folders written by
-// `recon panorama` (or `recon scene`).
+// `recon panorama` (or `recon scene`); recon register also on point-cloud files (.ply, .pcd).
 struct ReconRegisterArguments {
-  std::string source, target;  // panorama folders
+  std::string source, target;  // panorama folders, or point-cloud files (.ply / .pcd)
   std::string method;          // registration.method (default gicp-ours)
-  std::string initial;         // optional: a pose JSON, or a previous `recon register` output
+  std::string initial;         // optional: a pose JSON, a previous `recon register` output, or a 4x4 .txt
+  std::string matrix;          // the 4x4 text output; default: --out with .txt for .json
+  double voxel_m = -1;         // clouds: registration.voxel_m (< 0: from the config)
   std::string out, config_file;
   std::vector<std::string> overrides;
   int threads = -1;

@@ -1,5 +1,6 @@
 // `panoscan recon register` and `panoscan recon integrate`: stage 2 of the method (paper §5) on
-// panorama folders written by `recon panorama` or `recon scene`. No algorithm lives here: reading,
+// panorama folders written by `recon panorama` or `recon scene`; `recon register` also on point-cloud
+// files (.ply / .pcd, recon/pipeline's cloud_registration.h). No algorithm lives here: reading,
 // calling recon/pipeline's stage2.h and recon/integration, reporting.
 #include <filesystem>
 #include <fstream>
@@ -11,12 +12,14 @@
 
 #include "commands.h"
 #include "panoscan/core/atomic_output.h"
+#include "panoscan/core/cloud_file.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/json_file.h"
 #include "panoscan/core/log.h"
 #include "panoscan/core/pose_json.h"
 #include "panoscan/core/timer.h"
+#include "panoscan/recon/cloud_registration.h"
 #include "panoscan/recon/panorama.h"
 #include "panoscan/recon/placement.h"
 #include "panoscan/recon/stage2.h"
@@ -64,15 +67,122 @@ PoseGraphEdge read_registration_edge(const std::string& file, const std::vector<
 
 std::string absolute_path(const std::string& path) { return fs::absolute(path).lexically_normal().string(); }
 
+// What --source / --target name: a panorama folder or a point-cloud file (by what is there, then
+// the extension). Both must be of one kind.
+bool registers_clouds(const ReconRegisterArguments& a) {
+  auto is_cloud = [](const std::string& path, const char* option) {
+    std::error_code ec;
+    if (fs::is_directory(path, ec)) return false;
+    if (is_cloud_file_path(path)) return true;
+    if (fs::exists(path, ec))
+      throw make_error(path, option, "neither a panorama folder nor a point-cloud file (.ply, .pcd)");
+    throw make_error(path, option, "not found (expected a panorama folder or a .ply / .pcd point-cloud file)");
+  };
+  const bool source = is_cloud(a.source, "--source"), target = is_cloud(a.target, "--target");
+  if (source != target)
+    throw make_error(source ? a.target : a.source, source ? "--target" : "--source",
+                     std::string("is a ") + (source ? "panorama folder" : "point-cloud file") + " but " +
+                         (source ? a.source : a.target) + " is a " + (source ? "point-cloud file" : "panorama folder") +
+                         ": register two of a kind");
+  return source;
+}
+
+// --matrix, or --out with its .json extension replaced by .txt.
+std::string matrix_path(const ReconRegisterArguments& a) {
+  if (!a.matrix.empty()) return a.matrix;
+  fs::path path(a.out);
+  if (path.extension() == ".json")
+    path.replace_extension(".txt");
+  else
+    path += ".txt";
+  return path.string();
+}
+
+void write_register_outputs(const ReconRegisterArguments& a, const std::string& matrix, const nlohmann::json& j,
+                            const Rigid3d& target_from_source) {
+  write_file_atomic(a.out, j.dump(2) + "\n");
+  write_file_atomic(matrix, pose_matrix_text(target_from_source));
+}
+
+void run_recon_register_clouds(const ReconRegisterArguments& a, Config& config, const std::string& matrix) {
+  if (a.voxel_m >= 0) config.set("registration.voxel_m", std::to_string(a.voxel_m));
+  const CloudRegistrationOptions options = cloud_registration_options_from_config(config);
+  config.check_all_used();
+  std::optional<Rigid3d> initial;
+  if (!a.initial.empty()) initial = read_pose_file(a.initial);
+  const CloudFile source = read_cloud_file(a.source);
+  const CloudFile target = read_cloud_file(a.target);
+
+  const SteadyTime start = steady_now();
+  const CloudPairRegistration r =
+      register_cloud_files(source, target, initial ? *initial : Rigid3d::Identity(), options);
+  const double seconds = seconds_since(start);
+
+  auto describe = [&](const CloudFile& file, std::size_t used, bool covariance_used) {
+    const Eigen::Vector3d viewpoint = cloud_file_viewpoint(file);
+    return nlohmann::json{{"format", file.format},
+                          {"points_in_file", file.declared_points},
+                          {"dropped_nan_points", file.dropped_invalid},
+                          {"registered_points", used},
+                          {"uncertainty_field", file.uncertainty.empty() ? "none" : file.uncertainty},
+                          {"covariance_used", covariance_used},
+                          {"viewpoint", {viewpoint.x(), viewpoint.y(), viewpoint.z()}},
+                          {"viewpoint_from", file.has_viewpoint ? "VIEWPOINT" : "origin (the file gives none)"}};
+  };
+  nlohmann::json j;
+  j["kind"] = "point-clouds";
+  j["source"] = absolute_path(a.source);
+  j["target"] = absolute_path(a.target);
+  j["method"] = to_string(options.icp.method);
+  j["method_used"] = to_string(r.method_used);
+  j["covariance"] = r.covariance_note;
+  j["voxel_m"] = options.voxel_m;
+  j["target_from_source"] = pose_to_json(r.target_from_source);
+  j["matrix_file"] = absolute_path(matrix);
+  j["initial"] = {{"kind", initial ? "given" : "identity"},
+                  {"pose", pose_to_json(initial ? *initial : Rigid3d::Identity())}};
+  j["clouds"] = {{"source", describe(source, r.source_points, r.source_covariance)},
+                 {"target", describe(target, r.target_points, r.target_covariance)}};
+  j["icp"] = {{"iterations", r.icp.iterations},
+              {"converged", r.icp.converged},
+              {"correspondences", r.icp.correspondences},
+              {"inlier_fraction", r.icp.inlier_fraction},
+              {"fitness", r.icp.fitness},
+              {"fitness_distance_m", options.icp.fitness_distance_m},
+              {"rmse_m", r.icp.rmse_m}};
+  j["overlap"] = r.overlap;
+  j["seconds"] = seconds;
+  write_register_outputs(a, matrix, j, r.target_from_source);
+  const Eigen::Vector3d t = r.target_from_source.translation();
+  std::cout << fmt::format(
+      "registered {} -> {} ({}{}): t = ({:.4f}, {:.4f}, {:.4f}) m, rotation {:.3f} deg; initial {}; {} and {} "
+      "points, {} iterations, overlap {:.2f}, {:.1f} s; wrote {} and {}\n",
+      a.source, a.target, to_string(r.method_used),
+      r.method_used != options.icp.method ? std::string(", for ") + to_string(options.icp.method) + ": no covariances"
+                                          : std::string(),
+      t.x(), t.y(), t.z(), rad2deg(rotation_angle(r.target_from_source.linear())), initial ? "given" : "identity",
+      r.source_points, r.target_points, r.icp.iterations, r.overlap, seconds, a.out, matrix);
+}
+
 }  // namespace
 
 void run_recon_register(const ReconRegisterArguments& a) {
   if (a.out.empty()) throw make_error("--out", "", "an output JSON file is required");
+  const std::string matrix = matrix_path(a);
+  if (fs::absolute(matrix).lexically_normal() == fs::absolute(a.out).lexically_normal())
+    throw make_error(matrix, "--matrix", "is the same file as --out");
   Config config = load_stage2_config(a.config_file, a.overrides, a.threads);
   if (!a.method.empty()) config.set("registration.method", a.method);
+  for (const std::string& output : {a.out, matrix})
+    if (fs::exists(output) && !a.overwrite)
+      throw make_error(output, "", "already exists (use --overwrite to replace it)");
+  if (registers_clouds(a)) {
+    run_recon_register_clouds(a, config, matrix);
+    return;
+  }
+  if (a.voxel_m >= 0) throw make_error("--voxel", "", "applies to point-cloud files only, not to panoramas");
   const PairRegistrationOptions options = pair_registration_options_from_config(config);
   config.check_all_used();
-  if (fs::exists(a.out) && !a.overwrite) throw make_error(a.out, "", "already exists (use --overwrite to replace it)");
   std::optional<Rigid3d> initial;
   if (!a.initial.empty()) initial = read_pose_file(a.initial);
   const Panorama source = read_panorama(a.source);
@@ -124,15 +234,16 @@ void run_recon_register(const ReconRegisterArguments& a) {
       {"rotation_deg", rad2deg(rotation_angle(stored.linear().transpose() * r.target_from_source.linear()))},
       {"translation_m", (stored.translation() - r.target_from_source.translation()).norm()},
       {"note", "meaningful only when both panoramas were built in one frame (e.g. ground-truth poses)"}};
+  j["matrix_file"] = absolute_path(matrix);
   j["seconds"] = seconds;
-  write_file_atomic(a.out, j.dump(2) + "\n");
+  write_register_outputs(a, matrix, j, r.target_from_source);
   const Eigen::Vector3d t = r.target_from_source.translation();
   std::cout << fmt::format(
       "registered {} -> {} ({}): t = ({:.4f}, {:.4f}, {:.4f}) m, rotation {:.3f} deg; initial {} ({} ORB inliers, "
-      "{} consistent at the end); {} iterations, fitness {:.2f}, {:.1f} s; wrote {}\n",
+      "{} consistent at the end); {} iterations, fitness {:.2f}, {:.1f} s; wrote {} and {}\n",
       a.source, a.target, to_string(options.icp.method), t.x(), t.y(), t.z(),
       rad2deg(rotation_angle(r.target_from_source.linear())), initial ? "given" : "ORB + RANSAC", r.guess.inliers,
-      r.consistent_matches, r.icp.iterations, r.icp.fitness, seconds, a.out);
+      r.consistent_matches, r.icp.iterations, r.icp.fitness, seconds, a.out, matrix);
 }
 
 void run_recon_integrate(const ReconIntegrateArguments& a) {

@@ -231,14 +231,24 @@ int main(int argc, char** argv) {
 
   ReconRegisterArguments register_args;
   CLI::App* recon_register = recon_cmd->add_subcommand(
-      "register", "register two panoramas: ORB + RANSAC guess, then GICP with the measured variance (paper 5.1)");
-  recon_register->add_option("--source", register_args.source, "panorama folder to move (from recon panorama)")
+      "register",
+      "register two panoramas (ORB + RANSAC guess, then GICP with the measured variance, paper 5.1) or two point "
+      "clouds (.ply / .pcd: GICP from the identity or --initial, with the files' per-point covariance)");
+  recon_register
+      ->add_option("--source", register_args.source,
+                   "panorama folder (from recon panorama) or point-cloud file (.ply, .pcd) to move")
       ->required();
-  recon_register->add_option("--target", register_args.target, "panorama folder it is registered to")->required();
+  recon_register->add_option("--target", register_args.target, "panorama folder or point-cloud file it is registered to")
+      ->required();
   recon_register->add_option("--method", register_args.method,
                              "gicp-ours (default), gicp-def, gicp, anisotropic, p2plane-curv, p2plane, p2point");
   recon_register->add_option("--initial", register_args.initial,
-                             "initial target_from_source (pose JSON) instead of ORB");
+                             "initial target_from_source (pose JSON, a recon register output, or a 4x4 matrix .txt) "
+                             "instead of ORB (panoramas) or the identity (clouds)");
+  recon_register->add_option("--matrix", register_args.matrix,
+                             "output 4x4 text matrix of target_from_source (default: --out with .txt for .json)");
+  recon_register->add_option("--voxel", register_args.voxel_m,
+                             "clouds: average the points in voxels of this size (m) first (registration.voxel_m)");
   recon_register->add_option("--out", register_args.out, "output JSON: target_from_source and diagnostics")->required();
   recon_register->add_option("--config", register_args.config_file, "YAML/JSON config (keys registration.*)");
   recon_register->add_option("--set", register_args.overrides, "override a config key (repeatable)");

@@ -1,4 +1,5 @@
-// Pose JSON: a pose file (`recon register --initial`, or a register output), and a tracked rig
+// Pose files: a pose JSON (`recon register --initial`, or a register output), the same bytes as a 4x4
+// text matrix (a .txt pose file, what `recon register --matrix` writes), and a tracked rig
 // trajectory folder (rig_estimate.json + camK.txt, `recon panorama --trajectory`) read against a valid
 // scan. The first byte picks the file the rest becomes.
 #include "fuzz_target.h"
@@ -40,6 +41,7 @@ std::vector<std::string> seed_inputs() {
   std::vector<std::string> seeds = folder_seeds(fixture().root, kFiles);
   seeds.push_back(std::string(1, char(0)) +
                   R"({"translation": [1, 2, 3], "rotation_quaternion_xyzw": [0, 0, 0, 1]})");
+  seeds.push_back(std::string(1, char(0)) + "# a matrix\n0 -1 0 0.5\n1 0 0 -1\n0 0 1 0\n0 0 0 1\n");
   return seeds;
 }
 }  // namespace panoscan::fuzz
@@ -50,9 +52,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const auto selected = panoscan::fuzz::select_file(data, size, kFiles.size());
   const auto path = f.root / kFiles[selected.choice];
   panoscan::fuzz::with_file_replaced(path, selected.bytes, [&] {
-    if (selected.choice == 0)
+    if (selected.choice == 0) {
       panoscan::fuzz::expect_clean(path.string(), [&] { panoscan::read_pose_file(path); });
-    else
+      const auto matrix = f.root / "pose.txt";
+      panoscan::fuzz::write_bytes(matrix, selected.bytes);
+      panoscan::fuzz::expect_clean(matrix.string(), [&] { panoscan::read_pose_file(matrix); });
+    } else
       panoscan::fuzz::expect_clean((f.root / "trajectory").string(),
                                    [&] { panoscan::read_rig_trajectory(f.root / "trajectory", f.scan); });
   });

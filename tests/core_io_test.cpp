@@ -21,6 +21,7 @@
 #include "panoscan/core/error.h"
 #include "panoscan/core/geometry.h"
 #include "panoscan/core/image_io.h"
+#include "panoscan/core/pose_json.h"
 #include "panoscan/core/trajectory.h"
 #include "test_util.h"
 
@@ -545,6 +546,37 @@ TEST(InterpolateTrajectory, TakesTheShortRotationAndRefusesUnsortedPosesOrABadWi
   EXPECT_TRUE(mid->isApprox(a.world_from_cam, 1e-12));
   EXPECT_THAT(error_of([&] { interpolate_trajectory({b, a}, {0.5}, 1.0); }), HasSubstr("strictly increase"));
   EXPECT_THAT(error_of([&] { interpolate_trajectory({a, b}, {0.5}, -1.0); }), HasSubstr("max_dt"));
+}
+
+TEST(PoseMatrixText, RoundTripAndRefusals) {
+  testutil::TempDir dir("posematrix");
+  const Rigid3d pose = make_rigid(Eigen::Matrix3d(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized())),
+                                  Eigen::Vector3d(0.1, -2.5, 1e-3));
+  const std::string text = pose_matrix_text(pose);
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 4);
+  EXPECT_THAT(text, ::testing::EndsWith("\n0 0 0 1\n"));
+  std::ofstream(dir / "m.txt") << "# a comment\n" << text;
+  const Rigid3d back = read_pose_file(dir / "m.txt");
+  EXPECT_LT((back.matrix() - pose.matrix()).cwiseAbs().maxCoeff(), 1e-15);
+  const struct {
+    const char* name;
+    const char* text;
+    const char* needle;
+  } cases[] = {
+      {"three_rows.txt", "1 0 0 0\n0 1 0 0\n0 0 1 0\n", "3 rows"},
+      {"five.txt", "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n0 0 0 1\n", "line 5"},
+      {"short_row.txt", "1 0 0 0\n0 1 0\n0 0 1 0\n0 0 0 1\n", "line 2"},
+      {"word.txt", "1 0 0 0\n0 1 0 0\n0 0 one 0\n0 0 0 1\n", "'one' is not a finite number"},
+      {"last_row.txt", "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 1 1\n", "last row"},
+      {"scaled.txt", "2 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n", "not a rotation"},
+      {"mirror.txt", "-1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n", "not a rotation"},
+  };
+  for (const auto& c : cases) {
+    std::ofstream(dir / c.name) << c.text;
+    const std::string message = error_of([&] { read_pose_file(dir / c.name); });
+    EXPECT_THAT(message, HasSubstr((dir / c.name).string())) << c.name;
+    EXPECT_THAT(message, HasSubstr(c.needle)) << c.name;
+  }
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 // rejected with an Error naming the file (and the property or vertex).
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -131,6 +132,42 @@ TEST(PointCloudIo, AsciiWithOtherElementsAndProperties) {
   EXPECT_FLOAT_EQ(cloud.variances[0], 1e-4f);
 }
 
+// Big-endian bytes of a value, built by shifts (independent of the host).
+template <class T>
+std::string big_endian(T value) {
+  std::uint64_t bits = 0;
+  std::memcpy(&bits, &value, sizeof(T));
+  std::string out;
+  for (int k = int(sizeof(T)) - 1; k >= 0; --k) out.push_back(char((bits >> (8 * k)) & 0xFF));
+  return out;
+}
+
+TEST(PointCloudIo, BigEndianWithMixedTypesAndAnElementBefore) {
+  testutil::TempDir dir("pcio");
+  std::string bytes =
+      "ply\nformat binary_big_endian 1.0\nelement range_grid 2\nproperty list uchar int vertex_indices\n"
+      "element vertex 2\nproperty double x\nproperty short intensity\nproperty float y\nproperty float z\n"
+      "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty double variance\nend_header\n";
+  bytes += big_endian<std::uint8_t>(1) + big_endian<std::int32_t>(0) + big_endian<std::uint8_t>(0);
+  bytes += big_endian(0.125) + big_endian<std::int16_t>(-300) + big_endian(-2.5f) + big_endian(3.75f) +
+           std::string("\x0a\x14\x1e") + big_endian(1e-4);
+  bytes += big_endian(-7.0) + big_endian<std::int16_t>(12) + big_endian(0.5f) + big_endian(1e3f) +
+           std::string("\xff\x00\x80", 3) + big_endian(0.0);
+  const PointCloud cloud = read_ply_point_cloud(write_bytes(dir / "be.ply", bytes));
+  ASSERT_EQ(cloud.size(), 2u);
+  EXPECT_EQ(cloud.positions[0], Eigen::Vector3d(0.125, -2.5, 3.75));
+  EXPECT_EQ(cloud.positions[1], Eigen::Vector3d(-7, 0.5, 1000));
+  EXPECT_EQ(cloud.colours[0], (Rgb8{10, 20, 30}));
+  EXPECT_EQ(cloud.colours[1], (Rgb8{255, 0, 128}));
+  EXPECT_FLOAT_EQ(cloud.variances[0], 1e-4f);
+  // Cut inside the second vertex: truncated, naming it.
+  const fs::path cut = write_bytes(dir / "cut.ply", bytes.substr(0, bytes.size() - 10));
+  const std::string message = error_of([&] { read_ply_point_cloud(cut); });
+  EXPECT_THAT(message, HasSubstr(cut.string()));
+  EXPECT_THAT(message, HasSubstr("vertex 1"));
+  EXPECT_THAT(message, HasSubstr("truncated"));
+}
+
 TEST(PointCloudIo, MeshFileReadsAsItsVertices) {
   testutil::TempDir dir("pcio");
   TriangleMesh mesh;
@@ -159,7 +196,7 @@ TEST(PointCloudIo, BadFilesNameTheFileAndTheField) {
   const std::vector<Case> cases = {
       {"not_ply.ply", "hello\nworld\n", "not a PLY"},
       {"no_end.ply", "ply\nformat ascii 1.0\nelement vertex 1\n", "end_header"},
-      {"big_endian.ply", "ply\nformat binary_big_endian 1.0\n" + header_xyz + "end_header\n", "big"},
+      {"big_endian.ply", "ply\nformat binary_big_endian 1.0\n" + header_xyz + "end_header\n", "truncated"},
       {"no_vertex.ply", "ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n",
        "vertex"},
       {"missing_z.ply",

@@ -275,6 +275,10 @@ TEST(Stage2Commands, RegisterThenIntegrateTwoPanoramaFolders) {
   EXPECT_LT(translation_error, 0.005);
   EXPECT_EQ(j["method"], "gicp-ours");
   EXPECT_TRUE(j["orb"]["success"].get<bool>());
+  // The 4x4 text matrix beside it (--out with .txt), the same transform; also an --initial form.
+  const fs::path matrix = f.tmp / "a-to-b.txt";
+  ASSERT_TRUE(fs::exists(matrix));
+  EXPECT_LT((read_pose_file(matrix).matrix() - estimate.matrix()).cwiseAbs().maxCoeff(), 1e-12);
 
   // Integrating with that registration: MAP merges pixels; the cloud has colour and variance.
   const fs::path map = f.tmp / "map.ply", align = f.tmp / "align.ply";

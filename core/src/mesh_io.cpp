@@ -7,7 +7,6 @@
 
 #include <algorithm>
 #include <cctype>
-#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -15,7 +14,6 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
-#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -48,12 +46,10 @@ void append_little_endian(std::string& out, T value) {
 // ------------------------------------------------------------------------------------------------
 // Header model.
 
-using PlyFormat = ply::Format;
 using PlyType = ply::Type;
 using PlyProperty = ply::Property;
 using PlyElement = ply::Element;
 using ply::is_integer_type;
-using ply::type_size;
 
 // A colour channel of this type maps [0, colour_scale] to [0, 1].
 double colour_scale(PlyType type) {
@@ -67,124 +63,6 @@ double colour_scale(PlyType type) {
     default: return 1.0;
   }
 }
-
-// ------------------------------------------------------------------------------------------------
-// Data readers: one value at a time, as double (exact for every PLY type).
-
-class DataReader {
- public:
-  virtual ~DataReader() = default;
-  // Reads one value of `type`; throws (naming `what`) if the data ends early or is malformed.
-  virtual double read(PlyType type, const std::string& what) = 0;
-  // Skips one value (faster than read for binary; same for ASCII).
-  virtual void skip(PlyType type, const std::string& what) { read(type, what); }
-  // Bytes (binary) or tokens (ASCII) left, to bound allocations on absurd counts.
-  virtual std::uint64_t remaining() const = 0;
-};
-
-class BinaryReader : public DataReader {
- public:
-  BinaryReader(const std::string& file, const std::string& data, std::size_t offset, bool little_endian)
-      : file_(file), data_(data), offset_(offset), swap_(little_endian != host_is_little_endian()) {}
-
-  double read(PlyType type, const std::string& what) override {
-    const std::size_t size = type_size(type);
-    if (offset_ + size > data_.size()) throw make_error(file_, what, "truncated data (the file ends early)");
-    char bytes[8];
-    std::memcpy(bytes, data_.data() + offset_, size);
-    offset_ += size;
-    if (swap_)
-      for (std::size_t i = 0; i < size / 2; ++i) std::swap(bytes[i], bytes[size - 1 - i]);
-    switch (type) {
-      case PlyType::kInt8: {
-        std::int8_t v;
-        std::memcpy(&v, bytes, 1);
-        return v;
-      }
-      case PlyType::kUInt8: {
-        std::uint8_t v;
-        std::memcpy(&v, bytes, 1);
-        return v;
-      }
-      case PlyType::kInt16: {
-        std::int16_t v;
-        std::memcpy(&v, bytes, 2);
-        return v;
-      }
-      case PlyType::kUInt16: {
-        std::uint16_t v;
-        std::memcpy(&v, bytes, 2);
-        return v;
-      }
-      case PlyType::kInt32: {
-        std::int32_t v;
-        std::memcpy(&v, bytes, 4);
-        return v;
-      }
-      case PlyType::kUInt32: {
-        std::uint32_t v;
-        std::memcpy(&v, bytes, 4);
-        return v;
-      }
-      case PlyType::kFloat32: {
-        float v;
-        std::memcpy(&v, bytes, 4);
-        return v;
-      }
-      case PlyType::kFloat64: {
-        double v;
-        std::memcpy(&v, bytes, 8);
-        return v;
-      }
-    }
-    return 0.0;
-  }
-
-  void skip(PlyType type, const std::string& what) override {
-    const std::size_t size = type_size(type);
-    if (offset_ + size > data_.size()) throw make_error(file_, what, "truncated data (the file ends early)");
-    offset_ += size;
-  }
-
-  std::uint64_t remaining() const override { return data_.size() - offset_; }
-
- private:
-  const std::string& file_;
-  const std::string& data_;
-  std::size_t offset_;
-  bool swap_;
-};
-
-class AsciiReader : public DataReader {
- public:
-  AsciiReader(const std::string& file, const std::string& data, std::size_t offset)
-      : file_(file), data_(data), offset_(offset) {}
-
-  double read(PlyType type, const std::string& what) override {
-    while (offset_ < data_.size() && std::isspace(static_cast<unsigned char>(data_[offset_]))) ++offset_;
-    if (offset_ >= data_.size()) throw make_error(file_, what, "truncated data (the file ends early)");
-    std::size_t end = offset_;
-    while (end < data_.size() && !std::isspace(static_cast<unsigned char>(data_[end]))) ++end;
-    const std::string token = data_.substr(offset_, end - offset_);
-    offset_ = end;
-    // from_chars: locale-independent (a comma-decimal locale must not change what a file means).
-    const char* first = token.data() + (token.size() > 1 && token[0] == '+' ? 1 : 0);
-    const char* last = token.data() + token.size();
-    double value = 0.0;
-    const auto [parse_end, error] = std::from_chars(first, last, value);
-    if (error != std::errc() || parse_end != last) throw make_error(file_, what, "'" + token + "' is not a number");
-    if (is_integer_type(type) && std::isfinite(value) && value != std::floor(value))
-      throw make_error(file_, what, "'" + token + "' is not an integer");
-    return value;
-  }
-
-  std::uint64_t remaining() const override { return (data_.size() - offset_) / 2 + 1; }
-
- private:
-  const std::string& file_;
-  const std::string& data_;
-  std::size_t offset_;
-};
 
 }  // namespace
 
@@ -237,9 +115,7 @@ TriangleMesh read_ply_mesh(const fs::path& path) {
 
   // --- Header (ply_header.h).
   const ply::Header header = ply::parse_header(data, file);
-  const PlyFormat format = header.format;
   const std::vector<PlyElement>& elements = header.elements;
-  std::size_t offset = header.body_offset;
 
   // --- What we need: x, y, z of "vertex" and the index list of "face".
   const PlyElement* vertex_element = nullptr;
@@ -279,26 +155,26 @@ TriangleMesh read_ply_mesh(const fs::path& path) {
     throw make_error(file, "element face", "vertex_indices must be an integer list");
   if (face_element->count == 0) throw make_error(file, "element face", "no faces: a mesh needs triangles");
 
-  // --- Data.
-  std::unique_ptr<DataReader> reader;
-  if (format == PlyFormat::kAscii)
-    reader = std::make_unique<AsciiReader>(file, data, offset);
-  else
-    reader = std::make_unique<BinaryReader>(file, data, offset, format == PlyFormat::kBinaryLittleEndian);
+  // --- Data (ply::BodyReader: ASCII or binary of either byte order).
+  ply::BodyReader reader(data, header, file);
 
   TriangleMesh mesh;
   std::vector<std::int64_t> corner_indices;  // 3 per triangle, validated once all vertices are known
   std::vector<std::uint64_t> triangle_face;  // the face each triangle came from, for error messages
   for (const PlyElement& element : elements) {
     const bool is_vertex = &element == vertex_element, is_face = &element == face_element;
+    if (!is_vertex && !is_face) {
+      reader.skip_element(element);
+      continue;
+    }
     // Each item takes at least one byte (or token): a larger count than the data left is corrupt.
-    if (element.count > reader->remaining() && !element.properties.empty())
+    if (element.count > reader.remaining() && !element.properties.empty())
       throw make_error(file, "element " + element.name,
                        "declares " + std::to_string(element.count) + " items but the data ends earlier (truncated)");
     if (is_vertex) mesh.vertices.reserve(static_cast<std::size_t>(element.count));
     std::vector<std::int64_t> polygon;
     for (std::uint64_t item = 0; item < element.count; ++item) {
-      const std::string what = element.name + " " + std::to_string(item);
+      reader.at(element.name, item);
       Eigen::Vector3d position = Eigen::Vector3d::Zero();
       Eigen::Vector3f colour = Eigen::Vector3f::Zero();
       for (std::size_t p = 0; p < element.properties.size(); ++p) {
@@ -310,38 +186,36 @@ TriangleMesh read_ply_mesh(const fs::path& path) {
                               : static_cast<int>(p) == colour_property[2] ? 2
                                                                           : -1;
           if (channel >= 0) {
-            const double value = reader->read(property.type, what + " property " + property.name);
+            const double value = reader.read(property.type, property.name);
             if (!std::isfinite(value))
-              throw make_error(file, what, "property " + property.name + " is not finite (NaN or inf)");
+              throw make_error(file, reader.where(), "property " + property.name + " is not finite (NaN or inf)");
             colour[channel] = static_cast<float>(std::clamp(value / colour_scale(property.type), 0.0, 1.0));
             continue;
           }
           if (is_vertex &&
               (static_cast<int>(p) == coordinate_property[0] || static_cast<int>(p) == coordinate_property[1] ||
                static_cast<int>(p) == coordinate_property[2])) {
-            const double value = reader->read(property.type, what + " property " + property.name);
+            const double value = reader.read(property.type, property.name);
             if (!std::isfinite(value))
-              throw make_error(file, what, "property " + property.name + " is not finite (NaN or inf)");
+              throw make_error(file, reader.where(), "property " + property.name + " is not finite (NaN or inf)");
             for (int axis = 0; axis < 3; ++axis)
               if (static_cast<int>(p) == coordinate_property[axis]) position[axis] = value;
           } else {
-            reader->skip(property.type, what + " property " + property.name);
+            reader.skip(property.type, property.name);
           }
           continue;
         }
-        const double count_value = reader->read(property.count_type, what + " list count of " + property.name);
-        if (count_value < 0 || count_value > 1e6)
-          throw make_error(file, what, "bad list length " + std::to_string(count_value) + " for " + property.name);
-        const std::size_t count = static_cast<std::size_t>(count_value);
         const bool wanted = is_face && static_cast<int>(p) == index_property;
+        const std::size_t count = reader.list_length(property.count_type, property.name, 1000000);
         if (!wanted) {
-          for (std::size_t k = 0; k < count; ++k) reader->skip(property.type, what + " list " + property.name);
+          for (std::size_t k = 0; k < count; ++k) reader.skip(property.type, property.name);
           continue;
         }
-        if (count < 3) throw make_error(file, what, "a face needs at least 3 vertices, has " + std::to_string(count));
+        if (count < 3)
+          throw make_error(file, reader.where(), "a face needs at least 3 vertices, has " + std::to_string(count));
         polygon.clear();
         for (std::size_t k = 0; k < count; ++k)
-          polygon.push_back(static_cast<std::int64_t>(reader->read(property.type, what + " vertex_indices")));
+          polygon.push_back(static_cast<std::int64_t>(reader.read(property.type, property.name)));
         // Fan triangulation (exact for convex polygons, which is what PLY writers produce).
         for (std::size_t k = 1; k + 1 < count; ++k) {
           corner_indices.insert(corner_indices.end(), {polygon[0], polygon[k], polygon[k + 1]});
@@ -350,7 +224,8 @@ TriangleMesh read_ply_mesh(const fs::path& path) {
       }
       if (is_vertex) mesh.vertices.push_back(position.cast<float>());
       if (is_vertex && coloured) mesh.vertex_colours.push_back(colour);
-      if (is_vertex && !mesh.vertices.back().allFinite()) throw make_error(file, what, "coordinate out of float range");
+      if (is_vertex && !mesh.vertices.back().allFinite())
+        throw make_error(file, reader.where(), "coordinate out of float range");
     }
   }
 

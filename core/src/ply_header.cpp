@@ -1,7 +1,11 @@
 #include "ply_header.h"
 
+#include <cctype>
 #include <cerrno>
+#include <charconv>
+#include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -128,6 +132,112 @@ Header parse_header(const std::string& data, const std::string& file) {
   if (!have_format) throw make_error(file, "format", "missing 'format' line in the PLY header");
   header.body_offset = offset;
   return header;
+}
+
+BodyReader::BodyReader(const std::string& bytes, const Header& header, std::string file)
+    : bytes_(bytes), pos_(header.body_offset), format_(header.format), file_(std::move(file)) {}
+
+std::string BodyReader::where() const {
+  return element_ ? *element_ + " " + std::to_string(index_) : std::string("data");
+}
+
+void BodyReader::truncated(const std::string& property) const {
+  throw make_error(file_, where(property), "truncated data (the file ends early)");
+}
+
+double BodyReader::read(Type type, const std::string& property) {
+  if (format_ == Format::kAscii) {
+    while (pos_ < bytes_.size() && std::isspace(static_cast<unsigned char>(bytes_[pos_]))) ++pos_;
+    if (pos_ >= bytes_.size()) truncated(property);
+    std::size_t end = pos_;
+    while (end < bytes_.size() && !std::isspace(static_cast<unsigned char>(bytes_[end]))) ++end;
+    const char* first = bytes_.data() + pos_;
+    const char* last = bytes_.data() + end;
+    pos_ = end;
+    const char* number = last - first > 1 && *first == '+' ? first + 1 : first;
+    double value = 0.0;
+    const auto [parse_end, error] = std::from_chars(number, last, value);
+    // from_chars reports out-of-range values (1e999) as an error; so does this reader.
+    if (error != std::errc() || parse_end != last)
+      throw make_error(file_, where(property),
+                       "'" + std::string(first, std::min<std::ptrdiff_t>(last - first, 40)) + "' is not a number");
+    if (is_integer_type(type) && std::isfinite(value) && value != std::floor(value))
+      throw make_error(file_, where(property),
+                       "'" + std::string(first, std::min<std::ptrdiff_t>(last - first, 40)) + "' is not an integer");
+    // The declared type decides the value, as in a binary file: "0.1" of a float property is float(0.1).
+    if (type == Type::kFloat32) return static_cast<float>(value);
+    return value;
+  }
+  const std::size_t size = type_size(type);
+  if (size > bytes_.size() - pos_) truncated(property);
+  std::uint64_t bits = 0;
+  const bool little = format_ == Format::kBinaryLittleEndian;
+  for (std::size_t k = 0; k < size; ++k) {
+    const std::size_t shift = 8 * (little ? k : size - 1 - k);
+    bits |= static_cast<std::uint64_t>(static_cast<unsigned char>(bytes_[pos_ + k])) << shift;
+  }
+  pos_ += size;
+  switch (type) {
+    case Type::kInt8: return static_cast<std::int8_t>(bits);
+    case Type::kUInt8: return static_cast<std::uint8_t>(bits);
+    case Type::kInt16: return static_cast<std::int16_t>(bits);
+    case Type::kUInt16: return static_cast<std::uint16_t>(bits);
+    case Type::kInt32: return static_cast<std::int32_t>(bits);
+    case Type::kUInt32: return static_cast<std::uint32_t>(bits);
+    case Type::kFloat32: {
+      const std::uint32_t narrow = static_cast<std::uint32_t>(bits);
+      float f;
+      std::memcpy(&f, &narrow, sizeof f);
+      return f;
+    }
+    case Type::kFloat64: {
+      double d;
+      std::memcpy(&d, &bits, sizeof d);
+      return d;
+    }
+  }
+  return 0.0;
+}
+
+void BodyReader::skip(Type type, const std::string& property) {
+  if (format_ == Format::kAscii) {
+    read(type, property);
+    return;
+  }
+  const std::size_t size = type_size(type);
+  if (size > bytes_.size() - pos_) truncated(property);
+  pos_ += size;
+}
+
+std::size_t BodyReader::list_length(Type count_type, const std::string& property, std::size_t max_length) {
+  const double count = read(count_type, property);
+  if (!(count >= 0) || count != std::floor(count) || count > double(max_length))
+    throw make_error(file_, where(property), "invalid list length " + std::to_string(count));
+  return static_cast<std::size_t>(count);
+}
+
+void BodyReader::skip_element(const Element& element) {
+  if (element.properties.empty()) return;
+  // Each instance takes at least one byte (or token): a larger count than the data left is corrupt.
+  if (element.count > remaining())
+    throw make_error(file_, "element " + element.name,
+                     "declares " + std::to_string(element.count) + " items but the data ends earlier (truncated)");
+  for (std::uint64_t i = 0; i < element.count; ++i) {
+    at(element.name, i);
+    for (const Property& property : element.properties) {
+      if (property.is_list) {
+        const std::size_t n = list_length(property.count_type, property.name);
+        for (std::size_t k = 0; k < n; ++k) skip(property.type, property.name);
+      } else {
+        skip(property.type, property.name);
+      }
+    }
+  }
+}
+
+std::uint64_t BodyReader::remaining() const {
+  const std::uint64_t left = bytes_.size() - pos_;
+  return format_ == Format::kAscii ? left / 2 + 1 : left;
 }
 
 }  // namespace panoscan::ply

@@ -1,13 +1,14 @@
 // PLY point clouds (see point_cloud.h for the layout).
 //
-// The reader parses the header into elements and typed properties, then decodes the body with
-// one generic value reader (ASCII tokens or little-endian bytes), so that elements before the
-// vertex element (rare, but legal) are skipped correctly and every property type is accepted
-// where it makes sense. Byte order is handled by explicit shifts, so the code does not depend
-// on the host's endianness.
+// The reader parses the header into elements and typed properties (ply_header.h), then decodes
+// the body with the one PLY value reader (ply::BodyReader: ASCII tokens, binary of either byte
+// order), so that elements before the vertex element (rare, but legal) are skipped correctly and
+// every property type is accepted where it makes sense. read_cloud_file (cloud_file.h) reads a
+// PLY through the same function, asking for its uncertainty properties as extra columns.
 
 #include "panoscan/core/point_cloud.h"
 
+#include "cloud_columns.h"
 #include "ply_header.h"
 
 #include <algorithm>
@@ -52,118 +53,8 @@ namespace {
 using PlyType = ply::Type;
 using PlyProperty = ply::Property;
 using PlyElement = ply::Element;
-using ply::type_size;
 
 bool is_float_type(PlyType type) { return !ply::is_integer_type(type); }
-
-// The shared header (ply_header.h); this reader decodes ASCII and little-endian bodies.
-struct PlyHeader {
-  bool ascii = false;
-  std::vector<PlyElement> elements;
-  std::size_t body_offset = 0;
-};
-
-PlyHeader parse_header(const std::string& bytes, const std::string& file) {
-  const ply::Header parsed = ply::parse_header(bytes, file);
-  if (parsed.format == ply::Format::kBinaryBigEndian)
-    throw make_error(file, "format", "binary_big_endian PLY is not supported (convert it to little-endian)");
-  return {parsed.format == ply::Format::kAscii, parsed.elements, parsed.body_offset};
-}
-
-std::string read_whole_file(const std::filesystem::path& path) { return ply::read_whole_file(path.string()); }
-
-// Reads values of the body one at a time, in either encoding. Throws a "truncated" Error naming
-// the element and instance (set by the caller through `where`) when the data runs out.
-class BodyReader {
- public:
-  BodyReader(const std::string& bytes, std::size_t offset, bool ascii, std::string file)
-      : bytes_(bytes), pos_(offset), ascii_(ascii), file_(std::move(file)) {}
-
-  std::string where;  // e.g. "vertex 17"
-
-  double value(PlyType type) { return ascii_ ? ascii_value() : binary_value(type); }
-
-  std::size_t list_count(PlyType type) {
-    const double count = value(type);
-    if (!(count >= 0) || count != std::floor(count) || count > 1e9)
-      throw make_error(file_, where, "invalid list length");
-    return static_cast<std::size_t>(count);
-  }
-
-  std::size_t remaining_bytes() const { return bytes_.size() - pos_; }
-
- private:
-  [[noreturn]] void truncated() const { throw make_error(file_, where, "file is truncated (data ends early)"); }
-
-  double ascii_value() {
-    while (pos_ < bytes_.size() && std::isspace(static_cast<unsigned char>(bytes_[pos_]))) ++pos_;
-    if (pos_ >= bytes_.size()) truncated();
-    // bytes_ is a std::string, so its buffer is null-terminated and strtod stops at the end.
-    const char* begin = bytes_.c_str() + pos_;
-    char* end = nullptr;
-    const double parsed = std::strtod(begin, &end);
-    if (end == begin) {
-      std::size_t token_end = pos_;
-      while (token_end < bytes_.size() && !std::isspace(static_cast<unsigned char>(bytes_[token_end]))) ++token_end;
-      throw make_error(file_, where,
-                       "'" + bytes_.substr(pos_, std::min<std::size_t>(token_end - pos_, 40)) + "' is not a number");
-    }
-    pos_ += static_cast<std::size_t>(end - begin);
-    return parsed;
-  }
-
-  std::uint64_t little_endian_bits(std::size_t size) {
-    if (pos_ + size > bytes_.size()) truncated();
-    std::uint64_t bits = 0;
-    for (std::size_t k = 0; k < size; ++k)
-      bits |= static_cast<std::uint64_t>(static_cast<unsigned char>(bytes_[pos_ + k])) << (8 * k);
-    pos_ += size;
-    return bits;
-  }
-
-  double binary_value(PlyType type) {
-    const std::uint64_t bits = little_endian_bits(type_size(type));
-    switch (type) {
-      case PlyType::kInt8: return static_cast<std::int8_t>(bits);
-      case PlyType::kUInt8: return static_cast<std::uint8_t>(bits);
-      case PlyType::kInt16: return static_cast<std::int16_t>(bits);
-      case PlyType::kUInt16: return static_cast<std::uint16_t>(bits);
-      case PlyType::kInt32: return static_cast<std::int32_t>(bits);
-      case PlyType::kUInt32: return static_cast<std::uint32_t>(bits);
-      case PlyType::kFloat32: {
-        const std::uint32_t narrow = static_cast<std::uint32_t>(bits);
-        float f;
-        std::memcpy(&f, &narrow, sizeof f);
-        return f;
-      }
-      case PlyType::kFloat64: {
-        double d;
-        std::memcpy(&d, &bits, sizeof d);
-        return d;
-      }
-    }
-    return 0.0;
-  }
-
-  const std::string& bytes_;
-  std::size_t pos_;
-  bool ascii_;
-  std::string file_;
-};
-
-void skip_element(BodyReader& reader, const PlyElement& element) {
-  for (std::size_t i = 0; i < element.count; ++i) {
-    reader.where = element.name + " " + std::to_string(i);
-    for (const PlyProperty& property : element.properties) {
-      if (property.is_list) {
-        const std::size_t n = reader.list_count(property.count_type);
-        for (std::size_t k = 0; k < n; ++k) reader.value(property.type);
-      } else {
-        reader.value(property.type);
-      }
-    }
-  }
-}
 
 // Index of the property called `name` in the element, or -1.
 int find_property(const PlyElement& element, const std::string& name) {
@@ -206,10 +97,13 @@ void append_f64(std::string& out, double value) { append_le(out, &value, 8); }
 
 }  // namespace
 
-PointCloud read_ply_point_cloud(const std::filesystem::path& path) {
+namespace detail {
+
+PointCloud read_ply_vertices(const std::filesystem::path& path, const PlyVertexRequest& request,
+                             PlyVertexExtras* extras) {
   const std::string file = path.string();
-  const std::string bytes = read_whole_file(path);
-  const PlyHeader header = parse_header(bytes, file);
+  const std::string bytes = ply::read_whole_file(file);
+  const ply::Header header = ply::parse_header(bytes, file);
 
   int vertex_index = -1;
   for (std::size_t e = 0; e < header.elements.size(); ++e)
@@ -221,71 +115,115 @@ PointCloud read_ply_point_cloud(const std::filesystem::path& path) {
   const PlyElement& vertex = header.elements[vertex_index];
 
   const auto xyz = find_triplet(vertex, {"x", "y", "z"}, true, file);
-  const auto normal = find_triplet(vertex, {"nx", "ny", "nz"}, false, file);
-  const auto rgb = find_triplet(vertex, {"red", "green", "blue"}, false, file);
-  if (rgb)
-    for (int k = 0; k < 3; ++k)
-      if (vertex.properties[(*rgb)[k]].type != PlyType::kUInt8)
-        throw make_error(file, "property " + vertex.properties[(*rgb)[k]].name, "colours must be uchar (0..255)");
-  const int variance_index = find_property(vertex, "variance");
-  if (variance_index >= 0 &&
-      (vertex.properties[variance_index].is_list || !is_float_type(vertex.properties[variance_index].type)))
-    throw make_error(file, "property variance", "must be a float or double scalar");
+  std::optional<std::array<int, 3>> normal, rgb;
+  int variance_index = -1;
+  if (request.attributes) {
+    normal = find_triplet(vertex, {"nx", "ny", "nz"}, false, file);
+    rgb = find_triplet(vertex, {"red", "green", "blue"}, false, file);
+    if (rgb)
+      for (int k = 0; k < 3; ++k)
+        if (vertex.properties[(*rgb)[k]].type != PlyType::kUInt8)
+          throw make_error(file, "property " + vertex.properties[(*rgb)[k]].name, "colours must be uchar (0..255)");
+    variance_index = find_property(vertex, "variance");
+    if (variance_index >= 0 &&
+        (vertex.properties[variance_index].is_list || !is_float_type(vertex.properties[variance_index].type)))
+      throw make_error(file, "property variance", "must be a float or double scalar");
+  }
+  std::vector<int> extra_index(request.extra.size(), -1);
+  if (extras) {
+    extras->columns.assign(request.extra.size(), {});
+    extras->format = header.format == ply::Format::kAscii                ? "ply ascii"
+                     : header.format == ply::Format::kBinaryLittleEndian ? "ply binary_little_endian"
+                                                                         : "ply binary_big_endian";
+    extras->declared_points = vertex.count;
+    extras->dropped_invalid = 0;
+    extras->kept.clear();
+  }
+  for (std::size_t k = 0; k < request.extra.size(); ++k) {
+    extra_index[k] = find_property(vertex, request.extra[k]);
+    if (extra_index[k] >= 0 && vertex.properties[extra_index[k]].is_list)
+      throw make_error(file, "property " + request.extra[k], "must be a scalar, not a list");
+  }
 
-  BodyReader reader(bytes, header.body_offset, header.ascii, file);
-  for (int e = 0; e < vertex_index; ++e) skip_element(reader, header.elements[e]);
+  ply::BodyReader reader(bytes, header, file);
+  for (int e = 0; e < vertex_index; ++e) reader.skip_element(header.elements[e]);
 
   // Guard the allocation against a corrupt count: every vertex takes at least one byte per
   // property in either encoding.
-  const std::size_t min_bytes_per_vertex = std::max<std::size_t>(1, vertex.properties.size());
-  if (vertex.count > reader.remaining_bytes() / min_bytes_per_vertex + 1)
+  const std::uint64_t min_bytes_per_vertex = std::max<std::size_t>(1, vertex.properties.size());
+  if (vertex.count > reader.remaining() / min_bytes_per_vertex + 1)
     throw make_error(file, "element vertex",
                      "declares " + std::to_string(vertex.count) + " vertices but the file is too short for them");
 
   PointCloud cloud;
-  cloud.positions.resize(vertex.count);
-  if (normal) cloud.normals.resize(vertex.count);
-  if (rgb) cloud.colours.resize(vertex.count);
-  if (variance_index >= 0) cloud.variances.resize(vertex.count);
+  cloud.positions.reserve(vertex.count);
+  if (normal) cloud.normals.reserve(vertex.count);
+  if (rgb) cloud.colours.reserve(vertex.count);
+  if (variance_index >= 0) cloud.variances.reserve(vertex.count);
+  if (extras)
+    for (std::size_t k = 0; k < request.extra.size(); ++k)
+      if (extra_index[k] >= 0) extras->columns[k].reserve(vertex.count);
 
   std::vector<double> values(vertex.properties.size());
-  for (std::size_t i = 0; i < vertex.count; ++i) {
-    reader.where = "vertex " + std::to_string(i);
+  for (std::uint64_t i = 0; i < vertex.count; ++i) {
+    reader.at(vertex.name, i);
     for (std::size_t p = 0; p < vertex.properties.size(); ++p) {
       const PlyProperty& property = vertex.properties[p];
       if (property.is_list) {
-        const std::size_t n = reader.list_count(property.count_type);
-        for (std::size_t k = 0; k < n; ++k) reader.value(property.type);
+        const std::size_t n = reader.list_length(property.count_type, property.name);
+        for (std::size_t k = 0; k < n; ++k) reader.skip(property.type, property.name);
         values[p] = 0.0;
       } else {
-        values[p] = reader.value(property.type);
+        values[p] = reader.read(property.type, property.name);
       }
     }
-    Eigen::Vector3d& position = cloud.positions[i];
-    for (int k = 0; k < 3; ++k) {
-      position[k] = values[(*xyz)[k]];
-      if (!std::isfinite(position[k]))
-        throw make_error(file, reader.where, "coordinate '" + vertex.properties[(*xyz)[k]].name + "' is not finite");
+    Eigen::Vector3d position;
+    for (int k = 0; k < 3; ++k) position[k] = values[(*xyz)[k]];
+    if (!position.allFinite()) {
+      // Cloud files of outside tools mark invalid points (of organised clouds) by NaN.
+      if (request.drop_nan_points && position.array().isNaN().any()) {
+        if (extras) ++extras->dropped_invalid;
+        continue;
+      }
+      for (int k = 0; k < 3; ++k)
+        if (!std::isfinite(position[k]))
+          throw make_error(file, reader.where(), "coordinate '" + vertex.properties[(*xyz)[k]].name + "' is not finite");
     }
+    cloud.positions.push_back(position);
     if (normal) {
-      for (int k = 0; k < 3; ++k) cloud.normals[i][k] = static_cast<float>(values[(*normal)[k]]);
-      if (!cloud.normals[i].allFinite()) throw make_error(file, reader.where, "normal is not finite");
+      Eigen::Vector3f n;
+      for (int k = 0; k < 3; ++k) n[k] = static_cast<float>(values[(*normal)[k]]);
+      if (!n.allFinite()) throw make_error(file, reader.where(), "normal is not finite");
+      cloud.normals.push_back(n);
     }
     if (rgb) {
+      Rgb8 colour;
       for (int k = 0; k < 3; ++k) {
         const double c = values[(*rgb)[k]];
-        if (!(c >= 0 && c <= 255)) throw make_error(file, reader.where, "colour value out of range 0..255");
-        cloud.colours[i][k] = static_cast<std::uint8_t>(c);
+        if (!(c >= 0 && c <= 255)) throw make_error(file, reader.where(), "colour value out of range 0..255");
+        colour[k] = static_cast<std::uint8_t>(c);
       }
+      cloud.colours.push_back(colour);
     }
     if (variance_index >= 0) {
       const double variance = values[variance_index];
       if (!std::isfinite(variance) || variance < 0)
-        throw make_error(file, reader.where, "variance must be finite and >= 0");
-      cloud.variances[i] = static_cast<float>(variance);
+        throw make_error(file, reader.where(), "variance must be finite and >= 0");
+      cloud.variances.push_back(static_cast<float>(variance));
+    }
+    if (extras) {
+      extras->kept.push_back(i);
+      for (std::size_t k = 0; k < request.extra.size(); ++k)
+        if (extra_index[k] >= 0) extras->columns[k].push_back(values[extra_index[k]]);
     }
   }
   return cloud;
+}
+
+}  // namespace detail
+
+PointCloud read_ply_point_cloud(const std::filesystem::path& path) {
+  return detail::read_ply_vertices(path, detail::PlyVertexRequest{}, nullptr);
 }
 
 void write_ply_point_cloud(const std::filesystem::path& path, const PointCloud& cloud, const PlyWriteOptions& options) {

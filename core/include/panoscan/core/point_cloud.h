@@ -7,8 +7,10 @@
 //   red green blue  optional, all three or none; uchar (uint8)
 //   variance     optional; float or double, m^2 (the panorama depth variance sigma_z^2), >= 0
 // Other vertex properties and other elements (e.g. a mesh's faces) are skipped, so a mesh's PLY
-// reads as the cloud of its vertices. The reader accepts ASCII and binary little-endian files;
-// the writer produces binary little-endian, atomically (temp file + rename).
+// reads as the cloud of its vertices. The reader accepts ASCII and binary (little- or big-endian)
+// files, through the one PLY header parser and body reader it shares with the mesh reader; the
+// writer produces binary little-endian, atomically (temp file + rename). Point clouds of outside
+// tools (PLY or PCD, with per-point uncertainty) are read for registration by cloud_file.h.
 #pragma once
 
 #include <array>
@@ -50,7 +52,7 @@ struct PlyWriteOptions {
 };
 
 // Throws Error naming the file and the property or vertex on: a missing file, a header that is not
-// PLY, big-endian data, no vertex element, a missing x/y/z, partial colour or normal triplets,
+// PLY, no vertex element, a missing x/y/z, partial colour or normal triplets,
 // colours that are not uchar, truncated data, non-finite coordinates, negative variances.
 // A file with zero vertices reads as an empty cloud (callers decide whether that is an error).
 PointCloud read_ply_point_cloud(const std::filesystem::path& path);
