@@ -30,11 +30,11 @@ namespace {
 
 // Eq. 9's terms examined (issue 17, item 7): each candidate changes one term of GICP (Ours).
 enum class Variant {
-  kPaper,          // Eq. 9 as the default: sigma_z the measurements' spread, sigma_phi = sigma_theta = 0.5 px,
-                   // the metric surface covariance
+  kPaper,          // the paper's Eq. 9: sigma_z the measurements' spread, sigma_phi = sigma_theta = 0.5 px,
+                   // Segal et al.'s surface covariance diag(eps, 1, 1)
   kStandardError,  // sigma_z / sqrt(n): the fused pixel's standard error instead of the spread
   kNoAngular,      // sigma_phi = sigma_theta = 0: the depth term alone
-  kUnitSurface,    // Segal et al.'s unit surface covariance diag(eps, 1, 1) (m^2) instead of the metric one
+  kMetricSurface,  // the surface covariance scaled by the neighbourhood's spread (the default before issue 17)
 };
 
 struct Row {
@@ -63,9 +63,9 @@ const std::vector<Row>& rows() {
       // Candidates (ground-truth poses only): one term of Eq. 9 changed at a time.
       {"GICP (Ours, sigma_z / sqrt(n); candidate)", IcpMethod::kGicpMeasured, kMeasured, 0, Variant::kStandardError},
       {"GICP (Ours, no angular term; candidate)", IcpMethod::kGicpMeasured, kMeasured, 0, Variant::kNoAngular},
-      {"GICP (unit surface covariance; candidate)", IcpMethod::kGicp, kMeasured, 0, Variant::kUnitSurface},
-      {"GICP (Ours, unit surface covariance; candidate)", IcpMethod::kGicpMeasured, kMeasured, 0,
-       Variant::kUnitSurface},
+      {"GICP (metric surface covariance; candidate)", IcpMethod::kGicp, kMeasured, 0, Variant::kMetricSurface},
+      {"GICP (Ours, metric surface covariance; candidate)", IcpMethod::kGicpMeasured, kMeasured, 0,
+       Variant::kMetricSurface},
   };
   return r;
 }
@@ -74,7 +74,7 @@ PanoramaCloudOptions with_variant(PanoramaCloudOptions options, DepthCovarianceM
   options.covariance = covariance;
   if (variant == Variant::kStandardError) options.standard_error = true;
   if (variant == Variant::kNoAngular) options.angular_sigma_px = 0.0;
-  if (variant == Variant::kUnitSurface) options.surface.metric_scale = false;
+  if (variant == Variant::kMetricSurface) options.surface.metric_scale = true;
   return options;
 }
 
