@@ -90,16 +90,6 @@ bool is_valid_sensor_name(const std::string& name) {
   });
 }
 
-// A path given by a listing or a caller must stay inside the directory it is relative to.
-bool is_safe_relative_path(const std::string& text) {
-  if (text.empty()) return false;
-  const fs::path path(text);
-  if (path.is_absolute() || path.has_root_name() || path.has_root_directory()) return false;
-  for (const fs::path& part : path) {
-    if (part == "..") return false;
-  }
-  return true;
-}
 
 // ---- rig.json field readers: each throws Error naming the origin and the dotted field. ----
 

@@ -25,17 +25,6 @@ bool parse_timestamp(const std::string& token, double* value) {
   return true;
 }
 
-// A path given by a listing must stay inside the folder it is relative to.
-bool is_safe_relative_path(const std::string& text) {
-  if (text.empty()) return false;
-  const fs::path path(text);
-  if (path.is_absolute() || path.has_root_name() || path.has_root_directory()) return false;
-  for (const fs::path& part : path) {
-    if (part == "..") return false;
-  }
-  return true;
-}
-
 }  // namespace
 
 std::vector<TumListingEntry> read_tum_listing(const fs::path& listing_path, const fs::path& base_dir) {
@@ -132,6 +121,16 @@ std::vector<TimestampPair> associate_timestamps(const std::vector<double>& rgb, 
   }
   std::sort(pairs.begin(), pairs.end(), [](const TimestampPair& a, const TimestampPair& b) { return a.rgb < b.rgb; });
   return pairs;
+}
+
+bool is_safe_relative_path(const std::string& text) {
+  if (text.empty()) return false;
+  const std::filesystem::path path(text);
+  if (path.is_absolute() || path.has_root_name() || path.has_root_directory()) return false;
+  for (const std::filesystem::path& part : path) {
+    if (part == "..") return false;
+  }
+  return true;
 }
 
 }  // namespace panoscan

@@ -26,6 +26,10 @@ struct TumListingEntry {
 std::vector<TumListingEntry> read_tum_listing(const std::filesystem::path& listing,
                                               const std::filesystem::path& base_dir);
 
+// True when `text` is a relative path that stays inside the folder it is relative to (not empty,
+// not absolute, no root, no ".." part): what listings and scan writers accept as a file name.
+bool is_safe_relative_path(const std::string& text);
+
 struct TimestampPair {
   std::size_t rgb = 0;    // index into the colour timestamps
   std::size_t depth = 0;  // index into the depth timestamps
