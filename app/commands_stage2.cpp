@@ -98,6 +98,17 @@ std::string matrix_path(const ReconRegisterArguments& a) {
   return path.string();
 }
 
+// The ICP part of a registration's JSON, the same for panoramas and point clouds.
+nlohmann::json icp_json(const IcpResult& icp, const IcpOptions& options) {
+  return {{"iterations", icp.iterations},
+          {"converged", icp.converged},
+          {"correspondences", icp.correspondences},
+          {"inlier_fraction", icp.inlier_fraction},
+          {"fitness", icp.fitness},
+          {"fitness_distance_m", options.fitness_distance_m},
+          {"rmse_m", icp.rmse_m}};
+}
+
 void write_register_outputs(const ReconRegisterArguments& a, const std::string& matrix, const nlohmann::json& j,
                             const Rigid3d& target_from_source) {
   write_file_atomic(a.out, j.dump(2) + "\n");
@@ -143,13 +154,7 @@ void run_recon_register_clouds(const ReconRegisterArguments& a, Config& config, 
                   {"pose", pose_to_json(initial ? *initial : Rigid3d::Identity())}};
   j["clouds"] = {{"source", describe(source, r.source_points, r.source_covariance)},
                  {"target", describe(target, r.target_points, r.target_covariance)}};
-  j["icp"] = {{"iterations", r.icp.iterations},
-              {"converged", r.icp.converged},
-              {"correspondences", r.icp.correspondences},
-              {"inlier_fraction", r.icp.inlier_fraction},
-              {"fitness", r.icp.fitness},
-              {"fitness_distance_m", options.icp.fitness_distance_m},
-              {"rmse_m", r.icp.rmse_m}};
+  j["icp"] = icp_json(r.icp, options.icp);
   j["overlap"] = r.overlap;
   j["seconds"] = seconds;
   write_register_outputs(a, matrix, j, r.target_from_source);
@@ -209,13 +214,7 @@ void run_recon_register(const ReconRegisterArguments& a) {
               {"inliers", r.guess.inliers},
               {"inlier_rmse_m", r.guess.inlier_rmse_m},
               {"consistent_with_result", r.consistent_matches}};
-  j["icp"] = {{"iterations", r.icp.iterations},
-              {"converged", r.icp.converged},
-              {"correspondences", r.icp.correspondences},
-              {"inlier_fraction", r.icp.inlier_fraction},
-              {"fitness", r.icp.fitness},
-              {"fitness_distance_m", options.icp.fitness_distance_m},
-              {"rmse_m", r.icp.rmse_m}};
+  j["icp"] = icp_json(r.icp, options.icp);
   j["overlap"] = r.overlap;
   if (r.alternative_refined) {
     const Rigid3d between = r.alternative_target_from_source.inverse() * r.target_from_source;

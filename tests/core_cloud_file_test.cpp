@@ -23,11 +23,8 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using testutil::error_of;
+using testutil::write_bytes;
 
-fs::path write_bytes(const fs::path& path, const std::string& bytes) {
-  std::ofstream(path, std::ios::binary) << bytes;
-  return path;
-}
 
 template <class T>
 std::string little_endian(T value) {

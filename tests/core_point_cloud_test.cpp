@@ -23,11 +23,8 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
 using testutil::error_of;
+using testutil::write_bytes;
 
-fs::path write_bytes(const fs::path& path, const std::string& bytes) {
-  std::ofstream(path, std::ios::binary) << bytes;
-  return path;
-}
 
 // Points with float-representable coordinates so that a float PLY round trip is exact.
 PointCloud make_cloud(std::size_t n, bool normals, bool colours, bool variances) {

@@ -3,6 +3,7 @@
 
 #include <atomic>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include <unistd.h>
@@ -25,6 +26,12 @@ std::string error_of(Action&& action) {
   }
   ADD_FAILURE() << "expected panoscan::Error to be thrown";
   return "";
+}
+
+// Writes `bytes` to `path` as they are (a binary stream) and returns the path.
+inline std::filesystem::path write_bytes(const std::filesystem::path& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary) << bytes;
+  return path;
 }
 
 // A fresh directory under the system temp dir, removed when the object goes away.
