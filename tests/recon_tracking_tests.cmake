@@ -20,3 +20,10 @@ panoscan_add_test(recon_features_test
   SOURCES recon_features_test.cpp
   DEPS panoscan_recon_features
   LABELS recon)
+# Handheld recordings: a simulated one-camera walk tracked without rotator assumptions (ba-only,
+# single-camera), the rotator's modes refused, the program's track + eval traj.
+panoscan_add_test(recon_handheld_test
+  SOURCES recon_handheld_test.cpp
+  DEPS panoscan_recon_tracking panoscan_sim panoscan_scenes panoscan_eval nlohmann_json::nlohmann_json
+  LABELS e2e)
+add_dependencies(recon_handheld_test panoscan)

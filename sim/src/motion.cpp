@@ -56,6 +56,7 @@ MotionModel::MotionModel(const MotionOptions& options, const ScanPosition& posit
   const double turn = deg2rad(options.turn_deg);
   // Each raised-cosine ramp covers half the angle it would at cruise speed.
   duration_ = turn / cruise_velocity_ + options.ramp_s;
+  if (options.kind == MotionKind::kHandheld) duration_ = options.handheld_duration_s;
 
   // Speed variation: e(t) = sum a sin(2 pi f t + phase); the random angular acceleration is
   // w_cruise * e'(t), whose variance is sum (a 2 pi f)^2 / 2. Equal amplitudes give the
@@ -89,6 +90,27 @@ MotionModel::MotionModel(const MotionOptions& options, const ScanPosition& posit
     const double realised = realised_std([&](double t) { return sum(wobble_terms_[component], t); }, 0.0, duration_);
     if (realised > 0)
       for (auto& s : wobble_terms_[component]) s.amplitude *= stddev / realised;
+  }
+
+  if (options.kind == MotionKind::kHandheld) {
+    const double stds[6] = {options.handheld_translation_m, options.handheld_translation_m,
+                            options.handheld_height_m,      deg2rad(options.handheld_yaw_deg),
+                            deg2rad(options.handheld_tilt_deg), deg2rad(options.handheld_tilt_deg)};
+    constexpr int kWalkTerms = 8;
+    for (int component = 0; component < 6; ++component) {
+      RandomStream rng(seed, -1, 100 + component, RandomPurpose::kMotion);
+      for (int k = 0; k < kWalkTerms; ++k)
+        walk_terms_[component].push_back(
+            {1.0, rng.uniform(options.handheld_band_low_hz, options.handheld_band_high_hz),
+             rng.uniform(0.0, 2.0 * M_PI)});
+      // Exactly the configured std over the recording, whatever the seed (as the wobble).
+      const double realised = realised_std([&](double t) { return sum(walk_terms_[component], t); }, 0.0, duration_);
+      for (auto& s : walk_terms_[component]) s.amplitude = realised > 0 ? stds[component] / realised : 0.0;
+    }
+    cruise_velocity_ = 0.0;  // no turn: azimuth(t) = 0
+    azimuth_table_.assign(2, 0.0);
+    scale_ = 0.0;
+    return;
   }
 
   // Integrate the raw velocity (trapezoid, 1 ms) and scale it so the turn is exact.
@@ -141,7 +163,17 @@ double MotionModel::angular_acceleration(double t) const {
 }
 
 Rigid3d MotionModel::world_from_axis(double t) const {
+  if (options_.kind == MotionKind::kHandheld) return world_from_axis_base_ * walk(t);
   return world_from_axis_base_ * rotation_about(Eigen::Vector3d::UnitZ(), azimuth(t));
+}
+
+Rigid3d MotionModel::walk(double t) const {
+  if (options_.kind != MotionKind::kHandheld) return Rigid3d::Identity();
+  double v[6];
+  for (int k = 0; k < 6; ++k) v[k] = sum(walk_terms_[k], t) - sum(walk_terms_[k], 0.0);  // 0 at the start
+  return make_rigid(Eigen::Matrix3d::Identity(), Eigen::Vector3d(v[0], v[1], v[2])) *
+         rotation_about(Eigen::Vector3d::UnitZ(), v[3]) * rotation_about(Eigen::Vector3d::UnitY(), v[4]) *
+         rotation_about(Eigen::Vector3d::UnitX(), v[5]);
 }
 
 Rigid3d MotionModel::wobble(double t) const {

@@ -19,6 +19,8 @@ double NoiseOptions::effective_disparity_std() const {
   return 0.0;
 }
 
+const char* to_string(MotionKind kind) { return kind == MotionKind::kHandheld ? "handheld" : "rotator"; }
+
 const char* to_string(NoisePreset preset) {
   switch (preset) {
     case NoisePreset::kNone: return "none";
@@ -49,6 +51,9 @@ void SimOptions::check(const std::string& origin) const {
   require(rig.install_offset_m.size() == 3, origin, "rig.install_offset_m", "needs 3 values");
   require(rig.install_rpy_deg.size() == 3, origin, "rig.install_rpy_deg", "needs 3 values");
   require(motion.turn_deg > 0 && motion.turn_deg <= 720, origin, "motion.turn_deg", "must be in (0, 720]");
+  require(motion.handheld_duration_s > 0, origin, "motion.handheld_duration_s", "must be positive");
+  require(motion.handheld_band_low_hz > 0 && motion.handheld_band_low_hz <= motion.handheld_band_high_hz, origin,
+          "motion.handheld_band_hz", "needs 0 < low <= high");
   require(motion.period_s > 0, origin, "motion.period_s", "must be positive");
   require(motion.ramp_s >= 0, origin, "motion.ramp_s", "must not be negative");
   require(motion.speed_band_low_hz > 0 && motion.speed_band_high_hz >= motion.speed_band_low_hz, origin,
@@ -88,6 +93,18 @@ SimOptions sim_options_from_config(Config& c) {
   o.rig.calibration_error_deg = c.get_double("rig.calibration_error_deg", o.rig.calibration_error_deg, 0.0, 45.0);
   o.rig.calibration_error_m = c.get_double("rig.calibration_error_m", o.rig.calibration_error_m, 0.0, 1.0);
 
+  o.motion.kind = c.get_string("motion.kind", "rotator", {"rotator", "handheld"}) == "handheld" ? MotionKind::kHandheld
+                                                                                              : MotionKind::kRotator;
+  o.motion.handheld_duration_s = c.get_double("motion.handheld_duration_s", o.motion.handheld_duration_s, 0.1, 3600.0);
+  o.motion.handheld_translation_m =
+      c.get_double("motion.handheld_translation_m", o.motion.handheld_translation_m, 0.0, 5.0);
+  o.motion.handheld_height_m = c.get_double("motion.handheld_height_m", o.motion.handheld_height_m, 0.0, 1.0);
+  o.motion.handheld_yaw_deg = c.get_double("motion.handheld_yaw_deg", o.motion.handheld_yaw_deg, 0.0, 180.0);
+  o.motion.handheld_tilt_deg = c.get_double("motion.handheld_tilt_deg", o.motion.handheld_tilt_deg, 0.0, 45.0);
+  const auto handheld_band =
+      c.get_doubles("motion.handheld_band_hz", {o.motion.handheld_band_low_hz, o.motion.handheld_band_high_hz}, 2);
+  o.motion.handheld_band_low_hz = handheld_band[0];
+  o.motion.handheld_band_high_hz = handheld_band[1];
   o.motion.turn_deg = c.get_double("motion.turn_deg", o.motion.turn_deg, 1.0, 720.0);
   o.motion.period_s = c.get_double("motion.period_s", o.motion.period_s, 0.1, 3600.0);
   o.motion.ramp_s = c.get_double("motion.ramp_s", o.motion.ramp_s, 0.0, 60.0);

@@ -57,6 +57,7 @@ RigInfo Simulator::rig_info() const {
   RigInfo info;
   info.reference_sensor = rig_.reference_sensor;
   info.description = "simulated by panoscan: scene " + scene_.name + ", position " + position_.name;
+  info.motion = options_.motion.kind == MotionKind::kHandheld ? RigMotion::kHandheld : RigMotion::kRotator;
   for (std::size_t c = 0; c < rig_.num_sensors(); ++c) {
     SensorInfo sensor;
     sensor.name = "cam" + std::to_string(c);
@@ -103,7 +104,8 @@ std::string Simulator::rig_truth_json() const {
                             {"frames", schedule_[c].size()}});
   }
   const auto& m = options_.motion;
-  j["motion"] = {{"turn_deg", m.turn_deg},
+  j["motion"] = {{"kind", to_string(m.kind)},
+                 {"turn_deg", m.turn_deg},
                  {"period_s", m.period_s},
                  {"ramp_s", m.ramp_s},
                  {"accel_std_deg_s2", m.accel_std_deg_s2},
@@ -113,6 +115,13 @@ std::string Simulator::rig_truth_json() const {
                  {"wobble_band_hz", {m.wobble_band_low_hz, m.wobble_band_high_hz}},
                  {"axis_tilt_deg", m.axis_tilt_deg},
                  {"axis_tilt_azimuth_deg", m.axis_tilt_azimuth_deg}};
+  if (m.kind == MotionKind::kHandheld)
+    j["motion"]["handheld"] = {{"duration_s", m.handheld_duration_s},
+                               {"translation_m", m.handheld_translation_m},
+                               {"height_m", m.handheld_height_m},
+                               {"yaw_deg", m.handheld_yaw_deg},
+                               {"tilt_deg", m.handheld_tilt_deg},
+                               {"band_hz", {m.handheld_band_low_hz, m.handheld_band_high_hz}}};
   const auto& s = options_.shutter;
   j["shutter"] = {
       {"fps", s.fps}, {"jitter_ms", s.jitter_ms}, {"drift_ppm", s.drift_ppm}, {"start_time_s", s.start_time_s}};

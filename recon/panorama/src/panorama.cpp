@@ -53,6 +53,10 @@ PanoramaOptions panorama_options_from_config(Config& config) {
 
 PanoramaResult build_panorama(const ScanIndex& scan, const RigTrajectory& trajectory, const PanoramaOptions& options) {
   options.check();
+  // The panorama is the view from the rotation axis (paper §4.2); a walk has no such centre.
+  if (scan.rig.motion == RigMotion::kHandheld)
+    throw make_error((scan.root / "rig.json").string(), "motion",
+                     "handheld: a panorama needs a scan turning in place on a rotator");
   using Clock = std::chrono::steady_clock;
   tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
   PanoramaResult result;

@@ -61,6 +61,7 @@ void TrackingVerifyOptions::check(const std::string& origin) const {
   require(max_extrinsics_change_deg > 0, "track.verify.max_extrinsics_change_deg", "must be > 0");
   require(max_extrinsics_change_m > 0, "track.verify.max_extrinsics_change_m", "must be > 0");
   require(max_axis_tilt_deg > 0 && max_axis_tilt_deg <= 180, "track.verify.max_axis_tilt_deg", "must be in (0, 180]");
+  require(max_unsupported_s > 0, "track.verify.max_unsupported_s", "must be > 0");
 }
 
 const char* to_string(TrackingMode mode) {
@@ -168,6 +169,7 @@ TrackingOptions tracking_options_from_config(Config& config) {
   v.max_extrinsics_change_m =
       config.get_double("track.verify.max_extrinsics_change_m", v.max_extrinsics_change_m, 1e-6, 10.0);
   v.max_axis_tilt_deg = config.get_double("track.verify.max_axis_tilt_deg", v.max_axis_tilt_deg, 1e-3, 180.0);
+  v.max_unsupported_s = config.get_double("track.verify.max_unsupported_s", v.max_unsupported_s, 1e-3, 3600.0);
   o.check(config.origin());
   return o;
 }
@@ -253,6 +255,12 @@ TrackingResult track_scan(const ScanIndex& scan, const TrackingOptions& options)
   frontend_options.threads = options.threads;
   frontend_options.depth_noise_coefficient = options.depth_noise_coefficient;
   if (options.mode == TrackingMode::kSingleCamera) frontend_options.sensors = {scan.rig.reference_sensor};
+  // The loop closure pairs the end of the turn with its start and keeps only pairs that fit an
+  // in-place rotation (frontend.h); a handheld recording has neither.
+  if (scan.rig.motion == RigMotion::kHandheld && frontend_options.loop_closure) {
+    frontend_options.loop_closure = false;
+    log_info(scan.root.string() + ": handheld recording: no end-of-turn loop closure");
+  }
   const FrontendResult frontend = run_frontend(scan, frontend_options);
   log_info("front end: " + std::to_string(frontend.landmarks.size()) + " landmarks, " +
            std::to_string(frontend.same_camera_pairs) + " same-camera, " + std::to_string(frontend.cross_camera_pairs) +
@@ -366,14 +374,17 @@ std::string tracking_stats_json(const TrackingResult& result, const RigInfo& rig
   nlohmann::json frames = nlohmann::json::object();
   for (std::size_t s = 0; s < v.frames.size() && s < rig.sensors.size(); ++s) {
     nlohmann::json observations = nlohmann::json::array(), gap = nlohmann::json::array(),
-                   confidence = nlohmann::json::array();
+                   gap_s = nlohmann::json::array(), confidence = nlohmann::json::array();
     for (const FrameSupport& f : v.frames[s]) {
       observations.push_back(f.observations);
       gap.push_back(f.gap_deg);
+      gap_s.push_back(f.gap_s);
       confidence.push_back(f.confidence);
     }
-    frames[rig.sensors[s].name] = {
-        {"observations", std::move(observations)}, {"gap_deg", std::move(gap)}, {"confidence", std::move(confidence)}};
+    frames[rig.sensors[s].name] = {{"observations", std::move(observations)},
+                                   {"gap_deg", std::move(gap)},
+                                   {"gap_s", std::move(gap_s)},
+                                   {"confidence", std::move(confidence)}};
   }
   j["frame_support"] = std::move(frames);
   return j.dump(2) + "\n";

@@ -15,6 +15,7 @@
 
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
+#include "panoscan/core/trajectory.h"
 #include "tracking_factors.h"
 #include "tracking_init.h"
 
@@ -51,6 +52,18 @@ double interpolate(const std::vector<double>& times, const std::vector<double>& 
 }
 
 bool finite(const Rigid3d& pose) { return pose.matrix().allFinite(); }
+
+// The reference camera's pose at time t, interpolated between its frames (translation linear,
+// rotation slerp) and held at the end poses outside them: where a handheld rig's other cameras start
+// (and, in single-camera mode, where they stay) without a rotator model.
+Rigid3d reference_pose_at(const std::vector<double>& times, const std::vector<Rigid3d>& poses, double t) {
+  if (t <= times.front()) return poses.front();
+  if (t >= times.back()) return poses.back();
+  std::vector<StampedPose> stamped;
+  const std::size_t i = std::upper_bound(times.begin(), times.end(), t) - times.begin();
+  for (std::size_t k : {i - 1, i}) stamped.push_back({times[k], poses[k]});
+  return *interpolate_trajectory(stamped, {t}, times[i] - times[i - 1]).front();
+}
 
 // track.log_iterations: Ceres' per-iteration summary as log lines, and its full report at the end
 // (where a slow solve spends its time).
@@ -117,7 +130,13 @@ TrackingState initialise_tracking_state(const ScanIndex& scan, const FrontendRes
   if (scan.frames[ref].empty())
     throw make_error(st.origin, scan.rig.sensors[ref].name, "the reference camera has no frames");
   const bool ba_only = options.mode == TrackingMode::kBaOnly;
-  st.use_regularisation = !ba_only && options.pose_regularisation;
+  st.handheld = scan.rig.motion == RigMotion::kHandheld;
+  if (st.handheld && (options.mode == TrackingMode::kFull || options.mode == TrackingMode::kFixedExtrinsics))
+    throw make_error(st.origin + "/rig.json", "motion",
+                     std::string("handheld: track.mode ") + to_string(options.mode) +
+                         " models an in-place rotator (Eq. 2-3); use ba-only or single-camera");
+  // Handheld: Eq. 1 alone (no rotator to regularise towards), in ba-only and single-camera mode.
+  st.use_regularisation = !ba_only && !st.handheld && options.pose_regularisation;
   st.use_velocity = st.use_regularisation && options.velocity_smoothness;  // Eq. 3 acts through the azimuths of Eq. 2
   st.active.assign(st.sensor_count, 0);
   for (int s = 0; s < st.sensor_count; ++s) {
@@ -132,7 +151,7 @@ TrackingState initialise_tracking_state(const ScanIndex& scan, const FrontendRes
     throw make_error(st.origin, scan.rig.sensors[ref].name,
                      "no verified frame pair in the reference camera (no features?)");
   const tracking_init::AxisEstimate axis0 = tracking_init::fit_axis(odometry);
-  if (!axis0.from_rotation)
+  if (!axis0.from_rotation && !st.handheld)
     log_warn(st.origin + ": too little rotation for an axis estimate; starting from the camera's up axis");
   const Rigid3d world_from_axis0 = axis_frame(axis0.point, axis0.direction, odometry[0]);
   for (const FrameEntry& e : scan.frames[ref]) st.ref_times.push_back(e.timestamp);
@@ -144,9 +163,11 @@ TrackingState initialise_tracking_state(const ScanIndex& scan, const FrontendRes
   for (int s = 0; s < st.sensor_count; ++s) {
     st.extrinsics[s] = PoseBlock::from(scan.rig.sensors[s].ref_from_cam);
     for (std::size_t f = 0; f < scan.frames[s].size(); ++f) {
-      const double a = interpolate(st.ref_times, ref_alpha0, scan.frames[s][f].timestamp);
+      const double t = scan.frames[s][f].timestamp;
+      const double a = interpolate(st.ref_times, ref_alpha0, t);
       const Rigid3d model =
-          world_from_axis0 * axis_rotation(a) * world_from_axis0.inverse() * scan.rig.sensors[s].ref_from_cam;
+          st.handheld ? reference_pose_at(st.ref_times, odometry, t) * scan.rig.sensors[s].ref_from_cam
+                      : world_from_axis0 * axis_rotation(a) * world_from_axis0.inverse() * scan.rig.sensors[s].ref_from_cam;
       st.poses[s].push_back(PoseBlock::from(s == ref ? odometry[f] : model));
       st.alpha[s].push_back(s == ref ? ref_alpha0[f] : a);
     }
@@ -405,6 +426,8 @@ TrackingResult extract_tracking_result(const TrackingState& st, const ScanIndex&
         const double a = interpolate(st.ref_times, st.alpha[ref], scan.frames[s][f].timestamp);
         pose =
             st.axis.pose() * axis_rotation(a) * st.axis.pose().inverse() * st.rig.pose() * trajectory.ref_from_cam[s];
+      } else if (st.handheld) {  // ... handheld: the reference camera's pose at that time, through T_c
+        pose = reference_pose_at(st.ref_times, ref_poses, scan.frames[s][f].timestamp) * trajectory.ref_from_cam[s];
       } else {  // ... or, without Eq. 2, the rotation about the fitted axis
         const double a = interpolate(st.ref_times, ref_alpha, scan.frames[s][f].timestamp);
         pose = trajectory.world_from_axis * axis_rotation(a) * trajectory.world_from_axis.inverse() *

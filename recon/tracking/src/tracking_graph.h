@@ -43,6 +43,7 @@ struct TrackingState {
   std::string origin;        // the scan, for messages
   std::vector<char> active;  // per sensor: in the graph
   bool use_regularisation = false, use_velocity = false;
+  bool handheld = false;  // rig.json "motion": handheld (no Eq. 2-3; other cameras start from the reference's pose)
   std::vector<std::vector<PoseBlock>> poses;        // T_ci (world_from_cam) per sensor, per frame
   std::vector<std::vector<double>> alpha;           // alpha_ci, unwrapped
   std::vector<PoseBlock> extrinsics;                // T_c (ref_from_cam)

@@ -1,6 +1,7 @@
 // verify_tracking (tracking.h): the self-check of a tracked trajectory. A wrong trajectory written
 // as a result is the worst outcome a testbed can have; each check compares the solution with a
-// property every rotator scan has, or with what the front end measured on its own.
+// property every rotator scan has, or with what the front end measured on its own (the only checks
+// of a handheld recording).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -82,6 +83,10 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
     return verdict;
   }
 
+  // A handheld recording (rig.json "motion": handheld) has no turn, no azimuth and no axis: the
+  // checks of the rotator's motion are left out, and the frames check measures its gaps in seconds.
+  const bool rotator = scan.rig.motion == RigMotion::kRotator;
+
   // turn and monotone: the reference camera's azimuth.
   const std::vector<double>& azimuth = result.azimuth_unwrapped_rad[ref];
   const std::vector<FrameEntry>& ref_frames = scan.frames[ref];
@@ -91,19 +96,22 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
   const double rate_deg_s = duration_s > 0 ? std::abs(turn_deg) / duration_s : 0.0;
 
   // frames: instants where some camera in the graph has min_frame_observations observations; the
-  // longest turn between two of them (time x mean turn rate, so that a wrong azimuth cannot hide it).
+  // longest stretch between two of them: on the rotator as a turn (time x mean turn rate, so that a
+  // wrong azimuth cannot hide it), handheld in seconds.
   std::vector<double> supported_times;
   for (int s = 0; s < sensors; ++s)
     for (std::size_t f = 0; f < observations[s].size(); ++f)
       if (observations[s][f] >= v.min_frame_observations) supported_times.push_back(scan.frames[s][f].timestamp);
   std::sort(supported_times.begin(), supported_times.end());
-  double longest_gap_deg = std::numeric_limits<double>::infinity();
+  double longest_gap_s = std::numeric_limits<double>::infinity();
   if (!supported_times.empty() && !ref_frames.empty()) {
-    longest_gap_deg = rate_deg_s * std::max(supported_times.front() - ref_frames.front().timestamp,
-                                            ref_frames.back().timestamp - supported_times.back());
+    longest_gap_s = std::max(supported_times.front() - ref_frames.front().timestamp,
+                             ref_frames.back().timestamp - supported_times.back());
     for (std::size_t k = 1; k < supported_times.size(); ++k)
-      longest_gap_deg = std::max(longest_gap_deg, rate_deg_s * (supported_times[k] - supported_times[k - 1]));
+      longest_gap_s = std::max(longest_gap_s, supported_times[k] - supported_times[k - 1]);
   }
+  const double gap_limit = rotator ? v.max_unsupported_turn_deg : v.max_unsupported_s;
+  auto gap_measure = [&](double seconds) { return rotator ? rate_deg_s * seconds : seconds; };
   for (int s = 0; s < sensors; ++s)
     for (std::size_t f = 0; f < scan.frames[s].size(); ++f) {
       FrameSupport& support = verdict.frames[s][f];
@@ -113,27 +121,40 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
       const auto it = std::lower_bound(supported_times.begin(), supported_times.end(), t);
       if (it != supported_times.end()) nearest_s = std::min(nearest_s, *it - t);
       if (it != supported_times.begin()) nearest_s = std::min(nearest_s, t - *(it - 1));
-      support.gap_deg = std::isfinite(nearest_s) ? rate_deg_s * nearest_s : 360.0;
+      support.gap_s = std::isfinite(nearest_s) ? nearest_s : duration_s;
+      support.gap_deg = rotator ? (std::isfinite(nearest_s) ? rate_deg_s * nearest_s : 360.0) : 0.0;
+      const double gap = std::isfinite(nearest_s) ? gap_measure(nearest_s) : gap_limit;
       support.confidence = std::min(1.0, double(support.observations) / v.min_frame_observations) *
-                           std::max(0.0, 1.0 - support.gap_deg / v.max_unsupported_turn_deg);
+                           std::max(0.0, 1.0 - gap / gap_limit);
     }
-  add("frames", longest_gap_deg <= v.max_unsupported_turn_deg, longest_gap_deg, v.max_unsupported_turn_deg,
-      std::isfinite(longest_gap_deg)
-          ? fmt::format("the longest stretch without a frame of {} or more observations spans {:.1f} deg of the turn "
-                        "(at most {:.0f}): there only Eq. 2-3 carry the azimuth",
-                        v.min_frame_observations, longest_gap_deg, v.max_unsupported_turn_deg)
-          : fmt::format("no frame has {} or more observations", v.min_frame_observations));
-  add("turn", std::abs(turn_deg) >= v.min_turn_deg && std::abs(turn_deg) <= v.max_turn_deg, std::abs(turn_deg),
-      std::abs(turn_deg) < v.min_turn_deg ? v.min_turn_deg : v.max_turn_deg,
-      fmt::format("the reference camera turns {:.1f} deg; a panoramic scan is one revolution ({:.0f} to {:.0f} deg)",
-                  std::abs(turn_deg), v.min_turn_deg, v.max_turn_deg));
-  double worst_backward_deg = 0.0;
-  for (std::size_t k = 1; k < azimuth.size(); ++k)
-    worst_backward_deg = std::max(worst_backward_deg, -direction * rad2deg(azimuth[k] - azimuth[k - 1]));
-  add("monotone", worst_backward_deg <= v.max_backward_step_deg, worst_backward_deg, v.max_backward_step_deg,
-      fmt::format(
-          "the azimuth steps back by up to {:.2f} deg between frames (at most {:.1f}); the rotator turns one way",
-          worst_backward_deg, v.max_backward_step_deg));
+  const double longest_gap = std::isfinite(longest_gap_s) ? gap_measure(longest_gap_s) : longest_gap_s;
+  std::string frames_detail;
+  if (!std::isfinite(longest_gap))
+    frames_detail = fmt::format("no frame has {} or more observations", v.min_frame_observations);
+  else if (rotator)
+    frames_detail = fmt::format(
+        "the longest stretch without a frame of {} or more observations spans {:.1f} deg of the turn "
+        "(at most {:.0f}): there only Eq. 2-3 carry the azimuth",
+        v.min_frame_observations, longest_gap, v.max_unsupported_turn_deg);
+  else
+    frames_detail = fmt::format(
+        "the longest stretch without a frame of {} or more observations lasts {:.2f} s (at most {:.2f}): there "
+        "the poses are extrapolated",
+        v.min_frame_observations, longest_gap, v.max_unsupported_s);
+  add("frames", longest_gap <= gap_limit, longest_gap, gap_limit, frames_detail);
+  if (rotator) {
+    add("turn", std::abs(turn_deg) >= v.min_turn_deg && std::abs(turn_deg) <= v.max_turn_deg, std::abs(turn_deg),
+        std::abs(turn_deg) < v.min_turn_deg ? v.min_turn_deg : v.max_turn_deg,
+        fmt::format("the reference camera turns {:.1f} deg; a panoramic scan is one revolution ({:.0f} to {:.0f} deg)",
+                    std::abs(turn_deg), v.min_turn_deg, v.max_turn_deg));
+    double worst_backward_deg = 0.0;
+    for (std::size_t k = 1; k < azimuth.size(); ++k)
+      worst_backward_deg = std::max(worst_backward_deg, -direction * rad2deg(azimuth[k] - azimuth[k - 1]));
+    add("monotone", worst_backward_deg <= v.max_backward_step_deg, worst_backward_deg, v.max_backward_step_deg,
+        fmt::format(
+            "the azimuth steps back by up to {:.2f} deg between frames (at most {:.1f}); the rotator turns one way",
+            worst_backward_deg, v.max_backward_step_deg));
+  }
 
   // pairs and loop: the front end's verified frame pairs.
   for (const bool loop : {false, true}) {
@@ -187,13 +208,15 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
                 v.max_extrinsics_change_m * 1e3));
 
   // axis: against the reference camera's up (-y) at its first frame; the axis' sign is arbitrary.
-  const Eigen::Vector3d axis_in_camera =
-      result.trajectory.world_from_cam[ref].front().world_from_cam.linear().transpose() *
-      result.trajectory.world_from_axis.linear().col(2);
-  const double tilt_deg = rad2deg(std::acos(std::min(1.0, std::abs(axis_in_camera.normalized().y()))));
-  add("axis", tilt_deg <= v.max_axis_tilt_deg, tilt_deg, v.max_axis_tilt_deg,
-      fmt::format("the rotation axis is {:.1f} deg from the reference camera's vertical (at most {:.0f})", tilt_deg,
-                  v.max_axis_tilt_deg));
+  if (rotator) {
+    const Eigen::Vector3d axis_in_camera =
+        result.trajectory.world_from_cam[ref].front().world_from_cam.linear().transpose() *
+        result.trajectory.world_from_axis.linear().col(2);
+    const double tilt_deg = rad2deg(std::acos(std::min(1.0, std::abs(axis_in_camera.normalized().y()))));
+    add("axis", tilt_deg <= v.max_axis_tilt_deg, tilt_deg, v.max_axis_tilt_deg,
+        fmt::format("the rotation axis is {:.1f} deg from the reference camera's vertical (at most {:.0f})", tilt_deg,
+                    v.max_axis_tilt_deg));
+  }
 
   verdict.checked = true;
   return verdict;

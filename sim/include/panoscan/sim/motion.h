@@ -9,6 +9,9 @@
 // exactly the std accel_std / w_cruise; w is then rescaled (by < 1%) so the total turn is exact.
 // Each wobble component is a sum of 12 sinusoids in the wobble band with exactly the configured
 // std over the scan: band-limited, so consecutive frames are correlated as real vibration is.
+// Handheld (motion.kind): no turn (azimuth 0); world_from_axis(t) = that start pose * Walk(t), the
+// walk a smooth 6-DoF excursion (x, y, z, yaw, pitch, roll, each a sum of 8 sinusoids in the
+// handheld band with exactly the configured std, shifted to be 0 at t = 0), the wobble on top.
 #pragma once
 
 #include <vector>
@@ -29,6 +32,7 @@ class MotionModel {
   double angular_acceleration(double t) const;   // rad/s^2 (analytic)
   Rigid3d world_from_axis(double t) const;       // ideal, no wobble
   Rigid3d wobble(double t) const;                // bracket perturbation
+  Rigid3d walk(double t) const;                  // handheld excursion from the start pose (identity on the rotator)
   // Unit axis direction and a point on it, in the scene frame.
   Eigen::Vector3d axis_direction() const;
   Eigen::Vector3d axis_point() const;
@@ -51,6 +55,7 @@ class MotionModel {
   double scale_ = 1.0;
   std::vector<Sinusoid> speed_terms_;
   std::vector<Sinusoid> wobble_terms_[6];
+  std::vector<Sinusoid> walk_terms_[6];  // handheld: x, y, z (m), yaw, pitch, roll (rad)
   std::vector<double> azimuth_table_;  // azimuth sampled every table_step_ seconds
   double table_step_ = 1e-3;
 };

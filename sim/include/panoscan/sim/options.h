@@ -27,7 +27,13 @@ struct RigOptions {
   double calibration_error_m = 0.005;  // rig.calibration_error_m
 };
 
+enum class MotionKind { kRotator, kHandheld };
+
 struct MotionOptions {
+  // motion.kind: rotator (the paper's in-place turn, below) or handheld: a seeded, smooth walk
+  // about the scanning position (the handheld_* keys, plus the wobble as hand tremor), written with
+  // rig.json "motion": handheld, for tracking that must not assume a rotation (TUM-like sequences).
+  MotionKind kind = MotionKind::kRotator;
   double turn_deg = 360.0;              // motion.turn_deg: total rotation
   double period_s = 32.0;               // motion.period_s: seconds per 360 deg at cruise speed
   double ramp_s = 1.0;                  // motion.ramp_s: raised-cosine ramp at start and stop
@@ -40,7 +46,17 @@ struct MotionOptions {
   double wobble_band_high_hz = 4.0;     // motion.wobble_band_hz[1]
   double axis_tilt_deg = 0.0;           // motion.axis_tilt_deg: axis vs gravity
   double axis_tilt_azimuth_deg = 30.0;  // motion.axis_tilt_azimuth_deg
+  // Handheld walk: each component a sum of sinusoids in the band with exactly this std over the
+  // recording, starting at the scanning position (zero offset at t = 0).
+  double handheld_duration_s = 10.0;            // motion.handheld_duration_s
+  double handheld_translation_m = 0.15;         // motion.handheld_translation_m: std per horizontal axis
+  double handheld_height_m = 0.05;              // motion.handheld_height_m: std of the height
+  double handheld_yaw_deg = 30.0;               // motion.handheld_yaw_deg: std of the heading
+  double handheld_tilt_deg = 5.0;               // motion.handheld_tilt_deg: std of pitch and roll (about the floor point)
+  double handheld_band_low_hz = 0.05;           // motion.handheld_band_hz[0]
+  double handheld_band_high_hz = 0.3;           // motion.handheld_band_hz[1]
 };
+const char* to_string(MotionKind kind);  // "rotator", "handheld"
 
 struct ShutterOptions {
   double fps = 30.0;          // shutter.fps

@@ -30,6 +30,11 @@
 // fitted to those poses (direction: mean rotation vector, point: least-squares fixed point of the
 // rotations); alpha_ci is the reference rotation about that axis, interpolated in time for the
 // other cameras, whose poses start at T_u R(alpha) T_u^-1 T_c with the calibrated T_c.
+// Handheld recordings (rig.json "motion": handheld, e.g. `import tum`): no rotator, so no Eq. 2-3
+// and no axis. Only ba-only and single-camera run (both Eq. 1 alone; full and fixed-extrinsics are
+// refused), the other cameras start at (and in single-camera mode stay at) the reference camera's
+// pose interpolated to their timestamps times the calibrated T_c, the front end skips the
+// end-of-turn loop closure, and verify_tracking leaves out the rotator's checks.
 // Determinism: for a given seed and thread count (Ceres' parallel Jacobian evaluation sums in a
 // fixed order; the front end is thread-count independent).
 #pragma once
@@ -76,6 +81,9 @@ struct TrackingVerifyOptions {
   double max_extrinsics_change_deg = 3.0;  // track.verify.max_extrinsics_change_deg: T_c vs the calibration
   double max_extrinsics_change_m = 0.03;   // track.verify.max_extrinsics_change_m
   double max_axis_tilt_deg = 30.0;         // track.verify.max_axis_tilt_deg: axis vs the reference camera's up (-y)
+  // track.verify.max_unsupported_s: handheld recordings (no turn to measure a gap by): the longest
+  // time no camera supports, over which the poses are extrapolated from the last motion.
+  double max_unsupported_s = 1.0;
 
   void check(const std::string& origin) const;
 };
@@ -155,7 +163,7 @@ struct TrackingStats {
 
 // One check of verify_tracking: its figure against its limit.
 struct TrackingCheck {
-  std::string name;  // frames, turn, monotone, pairs, loop, residuals, extrinsics, axis, finite
+  std::string name;  // frames, turn, monotone, pairs, loop, residuals, extrinsics, axis, finite (handheld: no turn, monotone, axis)
   bool passed = true;
   double value = 0.0, limit = 0.0;
   std::string detail;  // one line: what was measured and why it matters
@@ -164,8 +172,11 @@ struct TrackingCheck {
 // Per frame of each camera: its support by the data.
 struct FrameSupport {
   int observations = 0;     // Eq. 1 observations (0 for cameras not in the graph)
-  double gap_deg = 0.0;     // turn from this frame to the nearest instant some camera supports
-  double confidence = 0.0;  // min(1, observations / min_frame_observations) * max(0, 1 - gap / max gap)
+  double gap_deg = 0.0;     // turn from this frame to the nearest instant some camera supports (rotator; else 0)
+  double gap_s = 0.0;       // the same in seconds
+  // min(1, observations / min_frame_observations) * max(0, 1 - gap / max gap), the gap in degrees
+  // (rotator: max_unsupported_turn_deg) or seconds (handheld: max_unsupported_s)
+  double confidence = 0.0;
 };
 
 struct TrackingVerdict {
@@ -198,6 +209,8 @@ struct TrackingResult {
 //  - extrinsics: each estimated T_c within max_extrinsics_change_* of the calibration (rig.json);
 //  - axis: the rotation axis within max_axis_tilt_deg of the reference camera's up;
 //  - finite: every pose finite.
+// A handheld recording (rig.motion) is checked for frames (in seconds: max_unsupported_s), pairs,
+// loop, residuals, extrinsics and finite; turn, monotone and axis are rotator properties.
 // `observations`: per sensor, per frame, the Eq. 1 observations in the graph (empty for sensors
 // outside it); `residual_norms`: the whitened norm of every observation residual.
 TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& scan, const FrontendResult& frontend,
