@@ -1,4 +1,5 @@
 #include "commands.h"
+#include "command_support.h"
 
 #include <algorithm>
 #include <chrono>
@@ -23,6 +24,7 @@
 #include "panoscan/eval/report.h"
 #include "panoscan/eval/trajectory_evaluation.h"
 #include "panoscan/core/point_cloud.h"
+#include "panoscan/core/pose_json.h"
 #include "panoscan/eval/groundtruth.h"
 #include "panoscan/eval/mesh_distance.h"
 #include "panoscan/recon/panorama.h"
@@ -95,13 +97,13 @@ std::uintmax_t directory_size(const fs::path& dir) {
   return bytes;
 }
 
+}  // namespace
+
 Config load_config(const std::string& file, const std::vector<std::string>& overrides) {
   Config config = file.empty() ? Config() : Config::load_file(file);
   for (const auto& o : overrides) config.apply_override(o);
   return config;
 }
-
-}  // namespace
 
 void run_sim(const SimArguments& a, const std::vector<std::string>& defaults) {
   if (a.out.empty()) throw make_error("--out", "", "an output directory is required");
@@ -137,6 +139,7 @@ void run_eval_cloud(const EvalCloudArguments& a) {
   config.check_all_used();
   options.viewpoint_trajectories = viewpoints;
   options.coloured_ply = a.coloured_ply;
+  if (!a.transform.empty()) options.scene_from_cloud = read_pose_file(a.transform);
   if (a.threads >= 0) options.threads = a.threads;
   const eval::CloudEvalReport report = eval::evaluate_cloud_files(mesh, a.cloud, options);
   std::cout << eval::cloud_report_to_text(report);
@@ -256,9 +259,6 @@ void run_recon_track(const ReconTrackArguments& a) {
         result.verdict.first_failure());
 }
 
-namespace {
-
-// The poses a command should use for one scan.
 RigTrajectory scan_trajectory(const std::string& poses, const std::string& scan_dir, const ScanIndex& scan,
                               const TrackingOptions& tracking) {
   if (poses == "ground-truth") return eval::groundtruth_rig_trajectory(scan_dir);
@@ -269,6 +269,8 @@ RigTrajectory scan_trajectory(const std::string& poses, const std::string& scan_
   }
   return read_rig_trajectory(poses, scan);
 }
+
+namespace {
 
 void refuse_existing(const std::string& out, bool overwrite) {
   if (fs::exists(out) && !overwrite) throw make_error(out, "", "already exists (use --overwrite to replace it)");

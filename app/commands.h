@@ -45,6 +45,7 @@ void run_scene_generate(const SceneGenerateArguments& arguments);
 
 struct EvalCloudArguments {
   std::string mesh, cloud, scan, coloured_ply, json, config_file;
+  std::string transform;  // scene_from_cloud (read_pose_file), applied before the evaluation
   std::vector<std::string> viewpoints_from, overrides;
   int threads = -1;
 };
@@ -136,6 +137,25 @@ struct ImportTumArguments {
   bool overwrite = false;
 };
 void run_import_tum(const ImportTumArguments& arguments);
+
+// export prestitched|colmap|nerfstudio (commands_export.cpp; export/exports.h).
+struct ExportPrestitchedArguments {
+  std::string scan, out, stitch = "ex";
+  int width = 0, height = 0;  // 0: the reference camera's width, twice that
+  int threads = -1;
+  bool overwrite = false;
+};
+void run_export_prestitched(const ExportPrestitchedArguments& arguments);
+
+struct ExportModelArguments {
+  std::string scan, out, poses = "ground-truth", config_file;
+  std::vector<std::string> overrides;
+  int points_per_image = 100;  // colmap only
+  int threads = -1;
+  bool overwrite = false;
+};
+void run_export_colmap(const ExportModelArguments& arguments);
+void run_export_nerfstudio(const ExportModelArguments& arguments);
 
 struct DemoArguments {
   std::string out = "panoscan-demo";

@@ -119,6 +119,41 @@ int main(int argc, char** argv) {
   import_tum->add_flag("--hard-link", import_tum_args.hard_link, "hard-link the images instead of copying them");
   import_tum->add_flag("--overwrite", import_tum_args.overwrite, "replace an existing output folder");
 
+  // export
+  CLI::App* export_cmd = app.add_subcommand("export", "scans out to outside systems (TUM, COLMAP, nerfstudio)");
+  export_cmd->require_subcommand(1);
+  ExportPrestitchedArguments prestitched_args;
+  CLI::App* export_prestitched = export_cmd->add_subcommand(
+      "prestitched", "the paper's pre-stitched frames (Table 1's outside systems) as a TUM RGB-D sequence");
+  export_prestitched->add_option("--scan", prestitched_args.scan, "scan directory")->required();
+  export_prestitched->add_option("--stitch", prestitched_args.stitch,
+                                 "ex: calibrated extrinsics, gt: true relative poses (simulated scans)")
+      ->capture_default_str();
+  export_prestitched->add_option("--out", prestitched_args.out, "output TUM sequence folder")->required();
+  export_prestitched->add_option("--width", prestitched_args.width, "stitched width (0 = the reference camera's)");
+  export_prestitched->add_option("--height", prestitched_args.height, "stitched height (0 = twice the width)");
+  export_prestitched->add_option("--threads", prestitched_args.threads, "worker threads (0 = all cores)");
+  export_prestitched->add_flag("--overwrite", prestitched_args.overwrite, "replace an existing output folder");
+  ExportModelArguments colmap_args, nerfstudio_args;
+  auto add_model_options = [](CLI::App* cmd, ExportModelArguments& args) {
+    cmd->add_option("--scan", args.scan, "scan directory")->required();
+    cmd->add_option("--poses", args.poses, "ground-truth, tracked, or a folder from recon track")->capture_default_str();
+    cmd->add_option("--out", args.out, "output folder")->required();
+    cmd->add_option("--config", args.config_file, "YAML/JSON config (keys track.*, frontend.* for --poses tracked)");
+    cmd->add_option("--set", args.overrides, "override a config key (repeatable)");
+    cmd->add_option("--threads", args.threads, "worker threads (0 = all cores)");
+    cmd->add_flag("--overwrite", args.overwrite, "replace an existing output folder");
+  };
+  CLI::App* export_colmap = export_cmd->add_subcommand(
+      "colmap", "a COLMAP text model (cameras.txt, images.txt, points3D.txt) with the images");
+  add_model_options(export_colmap, colmap_args);
+  export_colmap->add_option("--points-per-image", colmap_args.points_per_image,
+                            "3D points back-projected from each image's depth (0 = none)")
+      ->capture_default_str();
+  CLI::App* export_nerfstudio =
+      export_cmd->add_subcommand("nerfstudio", "nerfstudio's transforms.json with the images and depth");
+  add_model_options(export_nerfstudio, nerfstudio_args);
+
   // demo
   DemoArguments demo_args;
   CLI::App* demo_cmd =
@@ -164,6 +199,9 @@ int main(int argc, char** argv) {
                          "a simulated scan: mesh from groundtruth/mesh.ply, viewpoints from groundtruth/cam*.txt");
   eval_cloud->add_option("--viewpoints-from", cloud_args.viewpoints_from,
                          "TUM trajectory whose mean centre is a viewpoint for completeness (repeatable)");
+  eval_cloud->add_option("--transform", cloud_args.transform,
+                         "scene_from_cloud applied first: a 4x4 .txt or a pose JSON (e.g. an export's "
+                         "scene_from_sequence.txt)");
   eval_cloud->add_option("--coloured-ply", cloud_args.coloured_ply, "write the cloud coloured by its error");
   eval_cloud->add_option("--json", cloud_args.json, "write every figure and the settings as JSON");
   eval_cloud->add_option("--config", cloud_args.config_file, "YAML/JSON config (keys: see README)");
@@ -307,6 +345,12 @@ int main(int argc, char** argv) {
       run_recon_integrate(integrate_args);
     } else if (*import_tum) {
       run_import_tum(import_tum_args);
+    } else if (*export_prestitched) {
+      run_export_prestitched(prestitched_args);
+    } else if (*export_colmap) {
+      run_export_colmap(colmap_args);
+    } else if (*export_nerfstudio) {
+      run_export_nerfstudio(nerfstudio_args);
     } else if (*tables_cmd) {
       run_tables(tables_args);
     } else if (*demo_cmd) {

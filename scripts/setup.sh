@@ -7,6 +7,7 @@ cd "$(dirname "$0")/.."
 build_dir="${1:-build}"
 
 # clang-14 + libfuzzer-14-dev: the fuzz build (scripts/fuzz.sh); the tests replay the corpora with g++.
+# colmap: export_test checks `export colmap` with COLMAP's own model_analyzer.
 # snakemake, slurm-wlm, munge: the workflow (workflow/Snakefile) and its Slurm test, which starts a one-node
 # cluster of its own (tests/cluster/run_cluster_test.sh).
 # libopenblas0-pthread: the BLAS/LAPACK alternative for CHOLMOD in the tracking solve (2x faster than
@@ -21,6 +22,7 @@ packages=(
   python3-matplotlib python3-numpy
   clang-14 libfuzzer-14-dev
   snakemake slurm-wlm munge
+  colmap
 )
 
 missing=()

@@ -3,6 +3,8 @@
 #include "panoscan/core/timer.h"
 #include "panoscan/eval/cloud_evaluation.h"
 
+#include "panoscan/core/pose_json.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -110,7 +112,9 @@ CloudEvalReport evaluate_cloud_files(const std::filesystem::path& mesh_path, con
   report.options.metrics.check();
 
   const std::string cloud_name = cloud_path.string();
-  const PointCloud cloud = read_ply_point_cloud(cloud_path);
+  PointCloud cloud = read_ply_point_cloud(cloud_path);
+  if (!options.scene_from_cloud.isApprox(Rigid3d::Identity(), 0.0))
+    for (auto& p : cloud.positions) p = options.scene_from_cloud * p;
   if (cloud.empty()) throw make_error(cloud_name, "element vertex", "the cloud has no points: nothing to evaluate");
   report.cloud_points = cloud.size();
   report.cloud_has_colours = cloud.has_colours();
@@ -216,7 +220,8 @@ std::string cloud_report_to_json(const CloudEvalReport& r) {
                  {"cloud", r.cloud_path.string()},
                  {"cloud_points", r.cloud_points},
                  {"cloud_has_colours", r.cloud_has_colours},
-                 {"cloud_has_variances", r.cloud_has_variances}};
+                 {"cloud_has_variances", r.cloud_has_variances},
+                 {"scene_from_cloud", pose_to_json(r.options.scene_from_cloud)}};
   j["settings"] = {{"distance", "exact point-to-triangle distance (Embree BVH proposes, double precision decides)"},
                    {"percentiles", "linear interpolation between order statistics (numpy default)"},
                    {"thresholds_m", o.thresholds_m},

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "panoscan/core/geometry.h"
 #include "panoscan/eval/cloud_metrics.h"
 #include "panoscan/eval/coloured_cloud.h"
 #include "panoscan/eval/error_stats.h"
@@ -25,6 +26,10 @@ struct CloudEvalOptions {
   // visibility test of completeness: the mean of its camera centres (an in-place scan's camera
   // centres lie within ~10 cm of it).
   std::vector<std::filesystem::path> viewpoint_trajectories;
+  // Applied to the cloud before anything is measured: the scene frame from the cloud's frame (an
+  // outside system's output lives in its first camera's frame; `export prestitched` writes that
+  // camera's pose as scene_from_sequence.txt).
+  Rigid3d scene_from_cloud = Rigid3d::Identity();
   std::filesystem::path coloured_ply;  // empty: do not write
   ErrorColouring colouring;
   double histogram_max_m = 0.0;  // <= 0: twice the largest threshold
