@@ -68,6 +68,8 @@ ResolvedSim resolve_sim_options(const SimArguments& a, const std::vector<std::st
   if (a.every >= 0) config.set("output.every", std::to_string(a.every));
   if (a.threads >= 0) config.set("threads", std::to_string(a.threads));
   if (a.clean_depth) config.set("output.clean_depth", "true");
+  if (a.normals) config.set("output.normals", "true");
+  if (a.ids) config.set("output.ids", "true");
   ResolvedSim resolved;
   resolved.options = sim_options_from_config(config);
   resolved.style_given = config.has("scene.texture");

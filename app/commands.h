@@ -23,6 +23,8 @@ struct SimArguments {
   int every = -1;
   int threads = -1;
   bool clean_depth = false;
+  bool normals = false;
+  bool ids = false;
   bool overwrite = false;
 };
 // `defaults` are "key=value" settings applied unless the config file sets the key.

@@ -43,6 +43,8 @@ void add_sim_options(CLI::App* cmd, SimArguments& a, bool with_scene) {
   cmd->add_option("--every", a.every, "render every n-th frame of each camera (timestamps kept)");
   cmd->add_option("--threads", a.threads, "worker threads (0 = all cores)");
   cmd->add_flag("--clean-depth", a.clean_depth, "also write noiseless depth to groundtruth/depth_clean");
+  cmd->add_flag("--normals", a.normals, "also write camera-frame normals to groundtruth/normals (EXR)");
+  cmd->add_flag("--ids", a.ids, "also write triangle and material ids to groundtruth/ids (32-bit EXR)");
   cmd->add_flag("--overwrite", a.overwrite, "replace an existing output directory");
 }
 

@@ -279,6 +279,31 @@ TEST_F(IoTest, ExrMissingChannelIsNamed) {
   EXPECT_THAT(message, HasSubstr("R"));
 }
 
+TEST_F(IoTest, ExrIntegerIdsRoundTripBitExactAsUint) {
+  ImageI32 ids(5, 4, 2);
+  for (std::size_t i = 0; i < ids.data.size(); ++i)
+    ids.data[i] = std::int32_t(i * 104729);  // beyond 2^24: not float-exact
+  ids.data[0] = -1;
+  ids.data[1] = std::numeric_limits<std::int32_t>::max();
+  ids.data[2] = 16777217;  // 2^24 + 1, the first integer a float cannot hold
+  const fs::path path = dir_ / "ids.exr";
+  write_exr_i32(path, ids, {"triangle_id", "material_id"});
+  const ImageI32 back = read_exr_i32(path, {"triangle_id", "material_id"}, 5, 4);
+  EXPECT_EQ(back.channels, 2);
+  EXPECT_EQ(back.data, ids.data);
+  // Stored as UINT by bit pattern: a float reader sees -1 as 2^32 - 1 (rounded to 2^32).
+  EXPECT_EQ(read_exr(path, {"triangle_id"}).data[0], 4294967296.0f);
+  // A float channel is refused, never converted, and the message names the file and the channel.
+  const fs::path floats = dir_ / "floats.exr";
+  write_exr(floats, make_float_image(5, 4, 1), {"triangle_id"});
+  const std::string message = error_of([&] { read_exr_i32(floats, {"triangle_id"}); });
+  EXPECT_THAT(message, HasSubstr(floats.string()));
+  EXPECT_THAT(message, HasSubstr("channel triangle_id"));
+  EXPECT_THAT(message, HasSubstr("expected 32-bit unsigned integer"));
+  EXPECT_THAT(error_of([&] { read_exr_i32(path, {"object_id"}); }), HasSubstr("object_id"));
+  EXPECT_THAT(error_of([&] { read_exr_i32(path, {"triangle_id"}, 6, 4); }), HasSubstr("expected 6x4"));
+}
+
 TEST_F(IoTest, ExrBadInputIsRejected) {
   std::string message = error_of([&] { read_exr(dir_ / "missing.exr", {"Z"}); });
   EXPECT_THAT(message, HasSubstr((dir_ / "missing.exr").string()));

@@ -682,6 +682,54 @@ TEST_F(ScanTest, FramesOfOneSensorMustIncreaseInTime) {
   EXPECT_THAT(message, HasSubstr("cam1"));
 }
 
+TEST_F(ScanTest, PerFrameNormalsAndIdsRoundTripUnderGroundtruth) {
+  const fs::path scan_dir = dir_ / "scan";
+  ScanWriter writer(scan_dir, make_rig(), false);
+  ImageF32 normals(kWidth, kHeight, 3, 0.f);
+  ImageI32 triangles(kWidth, kHeight, 1, -1), materials(kWidth, kHeight, 1, -1);
+  for (int i = 1; i < kWidth * kHeight; ++i) {
+    normals.data[3 * i] = 0.6f, normals.data[3 * i + 2] = -0.8f - 1e-7f * float(i);
+    triangles.data[i] = 70000 * i;  // beyond a float's exact integers
+    materials.data[i] = i % 5;
+  }
+  for (int s = 0; s < kSensors; ++s) {
+    writer.write_frame(s, frame_timestamp(s, 0), make_rgb(s, 0), make_depth(s, 0));
+    writer.write_groundtruth_normals(s, frame_timestamp(s, 0), normals);
+    writer.write_groundtruth_ids(s, frame_timestamp(s, 0), triangles, materials);
+  }
+  EXPECT_THAT(error_of([&] { writer.write_groundtruth_normals(1, 1.0, ImageF32(kWidth, kHeight, 1)); }),
+              HasSubstr("cam1 normal image"));
+  EXPECT_THAT(error_of([&] { writer.write_groundtruth_ids(2, 1.0, triangles, ImageI32(kWidth, 5, 1)); }),
+              HasSubstr("cam2 material id image size"));
+  writer.commit();
+
+  const ScanIndex scan = read_scan_index(scan_dir);
+  const double timestamp = frame_timestamp(2, 0);
+  const fs::path ids_file = scan_dir / "groundtruth" / "ids" / "cam2" / (format_timestamp(timestamp) + ".exr");
+  EXPECT_EQ(groundtruth_ids_path(scan_dir, "cam2", timestamp), ids_file);
+  EXPECT_EQ(groundtruth_normals_path(scan_dir, "cam2", timestamp),
+            scan_dir / "groundtruth" / "normals" / "cam2" / (format_timestamp(timestamp) + ".exr"));
+  EXPECT_EQ(read_groundtruth_normals(scan, 2, timestamp).data, normals.data);
+  const ImageI32 ids = read_groundtruth_ids(scan, 2, timestamp);
+  ASSERT_EQ(ids.channels, 2);
+  for (int i = 0; i < kWidth * kHeight; ++i) {
+    ASSERT_EQ(ids.data[2 * i], triangles.data[i]);
+    ASSERT_EQ(ids.data[2 * i + 1], materials.data[i]);
+  }
+  // The documented file format, read without the scan helpers.
+  EXPECT_EQ(read_exr_i32(ids_file, {"triangle_id", "material_id"}).data, ids.data);
+
+  // Ids other than indices and -1 are refused naming the file and the channel.
+  ImageI32 corrupt = ids;
+  corrupt.data[5] = -7;
+  write_exr_i32(ids_file, corrupt, {"triangle_id", "material_id"});
+  const std::string message = error_of([&] { read_groundtruth_ids(scan, 2, timestamp); });
+  EXPECT_THAT(message, HasSubstr(ids_file.string()));
+  EXPECT_THAT(message, HasSubstr("channel material_id"));
+  EXPECT_THAT(error_of([&] { read_groundtruth_normals(scan, 3, timestamp); }), HasSubstr("sensor"));
+  EXPECT_THAT(error_of([&] { read_groundtruth_normals(scan, 0, timestamp); }), HasSubstr("EXR file not found"));
+}
+
 TEST_F(ScanTest, WriterChecksImagesAndIndices) {
   ScanWriter writer(dir_ / "scan", make_rig(), false);
   std::string message = error_of([&] { writer.write_frame(2, 1.0, make_rgb(2, 0, 4, 3), make_depth(2, 0)); });

@@ -1,8 +1,11 @@
-// The renderer and the simulator: exact ground truth, determinism, bad input.
+// The renderer and the simulator: exact ground truth (depth, normals, ids), determinism, bad input.
+#include <algorithm>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "panoscan/core/error.h"
 #include "panoscan/core/image_io.h"
@@ -31,6 +34,91 @@ std::string read_bytes(const fs::path& path) {
   return ss.str();
 }
 
+// The box room without its ceiling (rays out of the top hit nothing), each of its five faces in
+// one of four materials, so that material ids differ across the room and from the triangle ids.
+Scene open_top_room() {
+  Scene scene = testutil::make_box_room(-2, 3, -2.5, 2, 2.7, Eigen::Vector3d(0.3, 0.2, 0));
+  scene.materials.push_back({"floor", {0.5f, 0.4f, 0.3f}, -1});
+  scene.materials.push_back({"paint", {0.9f, 0.9f, 0.8f}, -1});
+  scene.materials.push_back({"tiles", {1.f, 1.f, 1.f}, 0});
+  TriangleMesh& mesh = scene.mesh;
+  // make_box_room emits two triangles per face: floor, ceiling, then the walls y0, x1, y1, x0.
+  const int face_material[6] = {1, -1, 3, 0, 2, 3};
+  TriangleMesh open = mesh;
+  open.triangles.clear(), open.triangle_material.clear(), open.corner_uvs.clear();
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    if (face_material[t / 2] < 0) continue;
+    open.triangles.push_back(mesh.triangles[t]);
+    open.triangle_material.push_back(face_material[t / 2]);
+    for (int k = 0; k < 3; ++k) open.corner_uvs.push_back(mesh.corner_uvs[3 * t + k]);
+  }
+  mesh = open;
+  return scene;
+}
+
+// world_from_cam of a camera at `eye` looking along `forward` with the image's up towards +z (camera
+// frame x right, y down, z forward).
+Rigid3d camera_looking(const Eigen::Vector3d& eye, const Eigen::Vector3d& forward) {
+  Eigen::Matrix3d rotation;
+  rotation.col(2) = forward.normalized();
+  rotation.col(0) = rotation.col(2).cross(Eigen::Vector3d::UnitZ()).normalized();
+  rotation.col(1) = rotation.col(2).cross(rotation.col(0));
+  return make_rigid(rotation, eye);
+}
+
+// The mesh's unit normal of triangle `id` (counter-clockwise), in the world frame.
+Eigen::Vector3d triangle_normal(const TriangleMesh& mesh, int id) {
+  const auto& tri = mesh.triangles[id];
+  const Eigen::Vector3d a = mesh.vertices[tri[0]].cast<double>(), b = mesh.vertices[tri[1]].cast<double>(),
+                        c = mesh.vertices[tri[2]].cast<double>();
+  return (b - a).cross(c - a).normalized();
+}
+
+// Checks normals against the mesh: each hit pixel's normal is its triangle's normal rotated into
+// the camera frame and faces the camera; pixels without a hit have zero normal. `sign`: +1 if the
+// camera sees the triangles' fronts (counter-clockwise side), -1 their backs, 0 either. Returns
+// {hits, misses}.
+std::pair<int, int> check_normals_against_mesh(const Scene& scene, const ImageF32& normal_cam,
+                                               const ImageI32& triangle_id, const Rigid3d& world_from_cam,
+                                               const PinholeIntrinsics& k, double sign) {
+  EXPECT_EQ(normal_cam.width, k.width);
+  EXPECT_EQ(normal_cam.height, k.height);
+  EXPECT_EQ(normal_cam.channels, 3);
+  if (normal_cam.data.size() != std::size_t(k.width) * k.height * 3) return {0, 0};
+  int hits = 0, misses = 0;
+  const Eigen::Matrix3d cam_from_world = world_from_cam.linear().transpose();
+  for (int y = 0; y < k.height; ++y)
+    for (int x = 0; x < k.width; ++x) {
+      const Eigen::Vector3d normal(normal_cam.at(x, y, 0), normal_cam.at(x, y, 1), normal_cam.at(x, y, 2));
+      const int id = triangle_id.at(x, y);
+      if (id < 0) {
+        EXPECT_EQ(normal, Eigen::Vector3d::Zero()) << "pixel " << x << "," << y;
+        ++misses;
+        continue;
+      }
+      ++hits;
+      const Eigen::Vector3d ray = k.backproject(x, y, 1.0);
+      Eigen::Vector3d expected = cam_from_world * triangle_normal(scene.mesh, id);
+      if (sign != 0.0) {
+        expected *= sign;
+      } else if (expected.dot(ray) > 0.0) {
+        expected = -expected;
+      }
+      EXPECT_LT((normal - expected).norm(), 1e-5)
+          << "pixel " << x << "," << y << ": " << normal.transpose() << " vs " << expected.transpose();
+      EXPECT_LT(normal.dot(ray), 0.0) << "pixel " << x << "," << y << " faces away from the camera";
+      if (::testing::Test::HasFailure()) return {hits, misses};  // one pixel's report is enough
+    }
+  return {hits, misses};
+}
+
+SimOptions ground_truth_options() {
+  SimOptions options = small_options();
+  options.output.normals = true;
+  options.output.ids = true;
+  return options;
+}
+
 }  // namespace
 
 TEST(Renderer, DepthIsZAlongTheOpticalAxisAndIdsAreTheHitTriangles) {
@@ -53,6 +141,38 @@ TEST(Renderer, DepthIsZAlongTheOpticalAxisAndIdsAreTheHitTriangles) {
       ++checked;
     }
   EXPECT_EQ(checked, 64 * 48);
+}
+
+TEST(Renderer, NormalsAreTheHitTrianglesInTheCameraFrameFacingTheCamera) {
+  const Scene scene = open_top_room();
+  const Renderer renderer(scene);
+  const PinholeIntrinsics k = PinholeIntrinsics::primesense(64, 48);
+  RenderRequest request;
+  request.normals = true;
+  // Inside, looking up 35 degrees towards the x1 wall: wall, side walls and the open top. The room's
+  // faces are wound towards its inside, so seen from inside they face the camera as they are.
+  const Rigid3d inside = camera_looking(Eigen::Vector3d(0.3, 0.2, 1.2), Eigen::Vector3d(1.0, 0.1, 0.7));
+  const RenderedView view = renderer.render(inside, k, request);
+  ASSERT_EQ(view.normal_cam.channels, 3);
+  const auto [hits, misses] = check_normals_against_mesh(scene, view.normal_cam, view.triangle_id, inside, k, +1.0);
+  for (std::size_t i = 0; i < view.depth.data.size(); ++i)
+    ASSERT_EQ(view.depth.data[i] == 0.f, view.triangle_id.data[i] < 0) << "pixel " << i;
+  EXPECT_GT(hits, k.width * k.height / 10);
+  EXPECT_GT(misses, k.width * k.height / 10);
+  // Outside, looking at the back of the x1 wall: the normal is turned round to face the camera.
+  const Rigid3d outside = camera_looking(Eigen::Vector3d(6.0, -0.3, 1.0), Eigen::Vector3d(-1.0, 0.2, 0.05));
+  const RenderedView back = renderer.render(outside, k, request);
+  EXPECT_GT(check_normals_against_mesh(scene, back.normal_cam, back.triangle_id, outside, k, -1.0).first,
+            k.width * k.height / 2);
+  // The same rays without normals: no normal image, and everything else unchanged.
+  const RenderedView plain = renderer.render(inside, k);
+  EXPECT_TRUE(plain.normal_cam.empty());
+  EXPECT_EQ(plain.depth.data, view.depth.data);
+  EXPECT_EQ(plain.rgb.data, view.rgb.data);
+  EXPECT_EQ(plain.triangle_id.data, view.triangle_id.data);
+  // render_rows with normals into a view allocated without them is refused, not a buffer overrun.
+  RenderedView unallocated = Renderer::allocate(k);
+  EXPECT_THROW(renderer.render_rows(inside, k, 0, 1, unallocated, request), Error);
 }
 
 TEST(Renderer, EquirectangularDepthIsRadialAndLandsOnTheMesh) {
@@ -104,7 +224,7 @@ TEST(Simulator, NoiselessFramesBackProjectOntoTheMesh) {
 TEST(Simulator, SameSeedSameBytesWithOneAndTwoThreads) {
   const Scene scene = testutil::make_box_room(-2, 3, -2.5, 2, 2.7, Eigen::Vector3d(0.3, 0.2, 0));
   testutil::TempDir tmp("determinism");
-  SimOptions options = small_options();
+  SimOptions options = ground_truth_options();
   options.output.clean_depth = true;
   options.threads = 1;
   Simulator(scene, 0, options).write_scan(tmp / "one", false);
@@ -172,6 +292,104 @@ TEST(Simulator, WrittenScanReadsBackWithGroundTruth) {
       }
     EXPECT_GT(valid, 1000u);
   }
+}
+
+TEST(Simulator, FramesCarryNormalsAndMaterialIdsOfTheHitTriangles) {
+  Scene scene = open_top_room();
+  const Simulator sim(scene, 0, ground_truth_options());
+  const PinholeIntrinsics& k = sim.rig().intrinsics;
+  int hits = 0, misses = 0;
+  std::set<int> materials_seen;
+  for (int c = 0; c < 3; ++c)
+    for (int f : {0, 3, 6, 9}) {  // around the turn: every wall
+      const SimulatedFrame frame = sim.render_frame(sim.schedule()[c][f]);
+      const auto [frame_hits, frame_misses] =
+          check_normals_against_mesh(scene, frame.normal_cam, frame.triangle_id, frame.world_from_cam, k, +1.0);
+      hits += frame_hits, misses += frame_misses;
+      ASSERT_EQ(frame.material_id.data.size(), frame.triangle_id.data.size());
+      for (std::size_t i = 0; i < frame.triangle_id.data.size(); ++i) {
+        const int triangle = frame.triangle_id.data[i];
+        ASSERT_EQ(frame.material_id.data[i], triangle < 0 ? -1 : scene.mesh.triangle_material[triangle]) << i;
+        materials_seen.insert(frame.material_id.data[i]);
+      }
+    }
+  EXPECT_GT(hits, 12 * k.width * k.height / 2);
+  EXPECT_GT(misses, 0) << "the upper camera sees out of the open top";
+  EXPECT_EQ(materials_seen, (std::set<int>{-1, 0, 1, 2, 3})) << "no hit, and all four materials";
+
+  // A mesh without materials: material -1 on every pixel, hit or not.
+  scene.mesh.triangle_material.clear();
+  const Simulator unpainted(scene, 0, ground_truth_options());
+  const SimulatedFrame frame = unpainted.render_frame(unpainted.schedule()[1][3]);
+  EXPECT_EQ(frame.material_id.data, std::vector<std::int32_t>(frame.triangle_id.data.size(), -1));
+  EXPECT_GT(std::count_if(frame.triangle_id.data.begin(), frame.triangle_id.data.end(), [](int t) { return t >= 0; }),
+            0);
+
+  // Not asked for: nothing computed.
+  const Simulator plain(open_top_room(), 0, small_options());
+  const SimulatedFrame plain_frame = plain.render_frame(plain.schedule()[1][3]);
+  EXPECT_TRUE(plain_frame.normal_cam.empty());
+  EXPECT_TRUE(plain_frame.material_id.empty());
+}
+
+TEST(Simulator, WrittenScanHoldsNormalsAndIdsOfEveryFrameOnlyWhenAsked) {
+  const Scene scene = open_top_room();
+  testutil::TempDir tmp("normals-ids");
+  const Simulator sim(scene, 0, ground_truth_options());
+  sim.write_scan(tmp / "scan", false);
+  const ScanIndex scan = read_scan_index(tmp / "scan");
+  const PinholeIntrinsics& k = sim.rig().intrinsics;
+  std::size_t frames = 0, misses = 0;
+  for (int c = 0; c < 3; ++c) {
+    const std::string camera = scan.rig.sensors[c].name;
+    ASSERT_EQ(scan.frames[c].size(), sim.schedule()[c].size());
+    for (std::size_t f = 0; f < scan.frames[c].size(); ++f) {
+      const SimulatedFrame rendered = sim.render_frame(sim.schedule()[c][f]);
+      const double timestamp = scan.frames[c][f].timestamp;
+      const fs::path normals_file =
+          tmp / "scan" / "groundtruth" / "normals" / camera / (format_timestamp(timestamp) + ".exr");
+      const fs::path ids_file = tmp / "scan" / "groundtruth" / "ids" / camera / (format_timestamp(timestamp) + ".exr");
+      ASSERT_TRUE(fs::is_regular_file(normals_file)) << normals_file;
+      ASSERT_TRUE(fs::is_regular_file(ids_file)) << ids_file;
+      // What was rendered, exactly, through the scan readers and through the documented channels.
+      ASSERT_EQ(read_groundtruth_normals(scan, c, timestamp).data, rendered.normal_cam.data) << normals_file;
+      ASSERT_EQ(read_exr(normals_file, {"R", "G", "B"}, k.width, k.height).data, rendered.normal_cam.data);
+      const ImageI32 ids = read_exr_i32(ids_file, {"triangle_id", "material_id"}, k.width, k.height);
+      ASSERT_EQ(read_groundtruth_ids(scan, c, timestamp).data, ids.data);
+      const ImageF32 triangle_as_float = read_exr(ids_file, {"triangle_id"});
+      for (std::size_t i = 0; i < rendered.triangle_id.data.size(); ++i) {
+        ASSERT_EQ(ids.data[2 * i], rendered.triangle_id.data[i]) << ids_file << " pixel " << i;
+        ASSERT_EQ(ids.data[2 * i + 1], rendered.material_id.data[i]) << ids_file << " pixel " << i;
+        if (rendered.triangle_id.data[i] < 0) {
+          // Stored as UINT: "nothing hit" is 2^32 - 1 to readers outside PanoScan.
+          ASSERT_EQ(triangle_as_float.data[i], 4294967296.0f);
+          ++misses;
+        }
+      }
+      ++frames;
+    }
+    // One file per frame, nothing else.
+    std::size_t files = 0;
+    for (const char* kind : {"normals", "ids"})
+      for (const auto& entry : fs::directory_iterator(tmp / "scan" / "groundtruth" / kind / camera))
+        files += entry.path().extension() == ".exr";
+    EXPECT_EQ(files, 2 * scan.frames[c].size());
+  }
+  EXPECT_EQ(frames, 33u);
+  EXPECT_GT(misses, 0u);
+  const auto truth = nlohmann::json::parse(read_bytes(tmp / "scan" / "groundtruth" / "rig_truth.json"));
+  EXPECT_EQ(truth["output"]["normals"], true);
+  EXPECT_EQ(truth["output"]["ids"], true);
+  EXPECT_EQ(truth["materials"], (nlohmann::json{"wall", "floor", "paint", "tiles"}));
+
+  // Without the options nothing of it is written.
+  Simulator(scene, 0, small_options()).write_scan(tmp / "plain", false);
+  EXPECT_FALSE(fs::exists(tmp / "plain" / "groundtruth" / "normals"));
+  EXPECT_FALSE(fs::exists(tmp / "plain" / "groundtruth" / "ids"));
+  const auto plain_truth = nlohmann::json::parse(read_bytes(tmp / "plain" / "groundtruth" / "rig_truth.json"));
+  EXPECT_EQ(plain_truth["output"]["normals"], false);
+  EXPECT_EQ(plain_truth["output"]["ids"], false);
+  EXPECT_FALSE(plain_truth.contains("materials"));
 }
 
 TEST(Simulator, BadInputIsAClearError) {

@@ -188,7 +188,24 @@ ImageU16 read_png16(const fs::path& path) {
   return image;
 }
 
-void write_exr(const fs::path& path, const ImageF32& image, const std::vector<std::string>& channel_names) {
+namespace {
+
+// The EXR pixel type that stores an image's samples: float as FLOAT; int32 as UINT, by bit pattern
+// (OpenEXR has no signed integer type), so -1 is stored as 4294967295.
+template <typename T>
+struct ExrSample;
+template <>
+struct ExrSample<float> {
+  static constexpr Imf::PixelType kType = Imf::FLOAT;
+};
+template <>
+struct ExrSample<std::int32_t> {
+  static constexpr Imf::PixelType kType = Imf::UINT;
+};
+
+template <typename T>
+void write_exr_channels(const fs::path& path, const Image<T>& image, const std::vector<std::string>& channel_names) {
+  static_assert(sizeof(T) == 4, "FLOAT and UINT samples are 4 bytes");
   check_shape(path, image.width, image.height, image.channels, image.data.size());
   if (channel_names.size() != std::size_t(image.channels))
     throw make_error(path.string(), "channels", "channel names do not match the image");
@@ -196,11 +213,12 @@ void write_exr(const fs::path& path, const ImageF32& image, const std::vector<st
     try {
       Imf::Header header(image.width, image.height);
       Imf::FrameBuffer frame_buffer;
-      const std::size_t pixel_stride = sizeof(float) * image.channels;
+      const std::size_t pixel_stride = sizeof(T) * image.channels;
       for (int c = 0; c < image.channels; ++c) {
-        header.channels().insert(channel_names[c], Imf::Channel(Imf::FLOAT));
-        char* base = reinterpret_cast<char*>(const_cast<float*>(image.data.data() + c));
-        frame_buffer.insert(channel_names[c], Imf::Slice(Imf::FLOAT, base, pixel_stride, pixel_stride * image.width));
+        header.channels().insert(channel_names[c], Imf::Channel(ExrSample<T>::kType));
+        char* base = reinterpret_cast<char*>(const_cast<T*>(image.data.data() + c));
+        frame_buffer.insert(channel_names[c],
+                            Imf::Slice(ExrSample<T>::kType, base, pixel_stride, pixel_stride * image.width));
       }
       Imf::OutputFile file(temp.string().c_str(), header);
       file.setFrameBuffer(frame_buffer);
@@ -209,6 +227,16 @@ void write_exr(const fs::path& path, const ImageF32& image, const std::vector<st
       throw make_error(path.string(), "", std::string("EXR write failed: ") + e.what());
     }
   });
+}
+
+}  // namespace
+
+void write_exr(const fs::path& path, const ImageF32& image, const std::vector<std::string>& channel_names) {
+  write_exr_channels(path, image, channel_names);
+}
+
+void write_exr_i32(const fs::path& path, const ImageI32& image, const std::vector<std::string>& channel_names) {
+  write_exr_channels(path, image, channel_names);
 }
 
 namespace {
@@ -305,8 +333,23 @@ void check_exr_header(const fs::path& path) {
 
 }  // namespace
 
-ImageF32 read_exr(const fs::path& path, const std::vector<std::string>& channel_names, int expected_width,
-                  int expected_height) {
+namespace {
+
+std::string pixel_type_text(Imf::PixelType type) {
+  switch (type) {
+    case Imf::UINT: return "32-bit unsigned integer (UINT)";
+    case Imf::HALF: return "16-bit float (HALF)";
+    case Imf::FLOAT: return "32-bit float (FLOAT)";
+    default: return "unknown";
+  }
+}
+
+// `exact_type`: refuse channels of another pixel type instead of letting OpenEXR convert them (ids
+// must not pass through a float).
+template <typename T>
+Image<T> read_exr_channels(const fs::path& path, const std::vector<std::string>& channel_names, int expected_width,
+                           int expected_height, bool exact_type) {
+  static_assert(sizeof(T) == 4, "FLOAT and UINT samples are 4 bytes");
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw make_error(path.string(), "", "EXR file not found");
   check_exr_header(path);
@@ -327,16 +370,20 @@ ImageF32 read_exr(const fs::path& path, const std::vector<std::string>& channel_
       throw make_error(path.string(), "dataWindow",
                        "size " + std::to_string(width) + "x" + std::to_string(height) + ", expected " +
                            std::to_string(expected_width) + "x" + std::to_string(expected_height));
-    ImageF32 image(width, height, static_cast<int>(channel_names.size()));
+    Image<T> image(width, height, static_cast<int>(channel_names.size()));
     Imf::FrameBuffer frame_buffer;
-    const std::size_t pixel_stride = sizeof(float) * image.channels;
+    const std::size_t pixel_stride = sizeof(T) * image.channels;
     for (int c = 0; c < image.channels; ++c) {
-      if (!file.header().channels().findChannel(channel_names[c]))
-        throw make_error(path.string(), "channel " + channel_names[c], "missing from the EXR file");
+      const Imf::Channel* channel = file.header().channels().findChannel(channel_names[c]);
+      if (!channel) throw make_error(path.string(), "channel " + channel_names[c], "missing from the EXR file");
+      if (exact_type && channel->type != ExrSample<T>::kType)
+        throw make_error(
+            path.string(), "channel " + channel_names[c],
+            "holds " + pixel_type_text(channel->type) + " samples, expected " + pixel_type_text(ExrSample<T>::kType));
       // The slice base points at pixel (0, 0) of the data window's coordinate system.
       char* base = reinterpret_cast<char*>(image.data.data() + c) -
                    (std::ptrdiff_t(window.min.x) + std::ptrdiff_t(window.min.y) * width) * std::ptrdiff_t(pixel_stride);
-      frame_buffer.insert(channel_names[c], Imf::Slice(Imf::FLOAT, base, pixel_stride, pixel_stride * width));
+      frame_buffer.insert(channel_names[c], Imf::Slice(ExrSample<T>::kType, base, pixel_stride, pixel_stride * width));
     }
     file.setFrameBuffer(frame_buffer);
     file.readPixels(window.min.y, window.max.y);
@@ -346,6 +393,18 @@ ImageF32 read_exr(const fs::path& path, const std::vector<std::string>& channel_
   } catch (const std::exception& e) {
     throw make_error(path.string(), "", std::string("not a readable EXR file: ") + e.what());
   }
+}
+
+}  // namespace
+
+ImageF32 read_exr(const fs::path& path, const std::vector<std::string>& channel_names, int expected_width,
+                  int expected_height) {
+  return read_exr_channels<float>(path, channel_names, expected_width, expected_height, false);
+}
+
+ImageI32 read_exr_i32(const fs::path& path, const std::vector<std::string>& channel_names, int expected_width,
+                      int expected_height) {
+  return read_exr_channels<std::int32_t>(path, channel_names, expected_width, expected_height, true);
 }
 
 }  // namespace panoscan

@@ -30,6 +30,18 @@
 // (filename relative to <name>/), '#' starts a comment line. Timestamps are written with 6
 // decimals, strictly increase, and both listings hold the same timestamps. The writer names
 // the images <name>/rgb/<timestamp>.png and <name>/depth/<timestamp>.png.
+//
+// groundtruth/ (simulated scans; read by eval and tests, never by reconstruction) holds <name>.txt
+// (TUM trajectory, world_from_cam), rig_truth.json, mesh.ply, and optionally, per frame and named
+// by the frame's timestamp like the images:
+//   depth_clean/<name>/<timestamp>.png   16-bit noiseless z, depth_scale units per metre
+//   normals/<name>/<timestamp>.exr       float channels R, G, B: the hit triangle's unit normal in
+//                                        the camera frame (x right, y down, z forward), facing the
+//                                        camera; 0 where nothing is hit
+//   ids/<name>/<timestamp>.exr           32-bit UINT channels triangle_id (index into mesh.ply's
+//                                        faces) and material_id (index into the scene's materials),
+//                                        int32 by bit pattern: 4294967295 = -1 = nothing hit (and
+//                                        material_id -1 for a mesh without materials)
 
 #include "panoscan/core/scan.h"
 
@@ -61,6 +73,18 @@ using nlohmann::json;
 constexpr const char* kRigFileName = "rig.json";
 constexpr const char* kGroundtruthDirName = "groundtruth";
 constexpr const char* kListingHeader = "# timestamp filename\n";
+// Sub-folders of groundtruth/ for the per-frame ground truth, and the EXR channels they hold.
+constexpr const char* kCleanDepthDirName = "depth_clean";
+constexpr const char* kNormalsDirName = "normals";
+constexpr const char* kIdsDirName = "ids";
+const std::vector<std::string>& normal_channels() {
+  static const std::vector<std::string> names = {"R", "G", "B"};
+  return names;
+}
+const std::vector<std::string>& id_channels() {
+  static const std::vector<std::string> names = {"triangle_id", "material_id"};
+  return names;
+}
 // Guards against absurd sizes whose pixel count would overflow or exhaust memory.
 constexpr int kMaxImageSide = 1 << 15;
 // A stored quaternion must be unit length to this tolerance (rig.json keeps full double precision).
@@ -446,6 +470,44 @@ std::vector<StampedPose> read_groundtruth_trajectory(const fs::path& scan_dir, i
   return read_tum_trajectory(groundtruth_dir(scan_dir) / (rig.sensors[sensor].name + ".txt"));
 }
 
+fs::path groundtruth_normals_path(const fs::path& scan_dir, const std::string& sensor_name, double timestamp) {
+  return groundtruth_dir(scan_dir) / kNormalsDirName / sensor_name / (format_timestamp(timestamp) + ".exr");
+}
+
+fs::path groundtruth_ids_path(const fs::path& scan_dir, const std::string& sensor_name, double timestamp) {
+  return groundtruth_dir(scan_dir) / kIdsDirName / sensor_name / (format_timestamp(timestamp) + ".exr");
+}
+
+namespace {
+
+const SensorInfo& indexed_sensor(const ScanIndex& scan, int sensor) {
+  if (sensor < 0 || sensor >= static_cast<int>(scan.rig.sensors.size()))
+    throw make_error(scan.root.string(), "sensor",
+                     "index " + std::to_string(sensor) + " is out of range (the rig has " +
+                         std::to_string(scan.rig.sensors.size()) + " sensors)");
+  return scan.rig.sensors[sensor];
+}
+
+}  // namespace
+
+ImageF32 read_groundtruth_normals(const ScanIndex& scan, int sensor, double timestamp) {
+  const SensorInfo& info = indexed_sensor(scan, sensor);
+  return read_exr(groundtruth_normals_path(scan.root, info.name, timestamp), normal_channels(), info.intrinsics.width,
+                  info.intrinsics.height);
+}
+
+ImageI32 read_groundtruth_ids(const ScanIndex& scan, int sensor, double timestamp) {
+  const SensorInfo& info = indexed_sensor(scan, sensor);
+  const fs::path path = groundtruth_ids_path(scan.root, info.name, timestamp);
+  ImageI32 ids = read_exr_i32(path, id_channels(), info.intrinsics.width, info.intrinsics.height);
+  for (std::size_t i = 0; i < ids.data.size(); ++i)
+    if (ids.data[i] < -1)
+      throw make_error(path.string(), "channel " + id_channels()[i % 2],
+                       "value " + std::to_string(std::uint32_t(ids.data[i])) + " at pixel " + std::to_string(i / 2) +
+                           " is neither an index (below 2^31) nor 4294967295 (nothing hit)");
+  return ids;
+}
+
 // ---- depth units ----
 
 ImageU16 depth_to_png_units(const ImageF32& depth_m, double depth_scale) {
@@ -509,11 +571,17 @@ struct ScanWriter::Impl {
   }
 
   void check_depth_image(const ImageU16& depth, const SensorInfo& info, const std::string& what) const {
-    check_image_shape(depth, 1, origin(), info.name + " " + what);
-    if (depth.width != info.intrinsics.width || depth.height != info.intrinsics.height) {
+    check_frame_image(depth, 1, info, what);
+  }
+
+  // `channels` channels of the sensor's image size.
+  template <typename T>
+  void check_frame_image(const Image<T>& image, int channels, const SensorInfo& info, const std::string& what) const {
+    check_image_shape(image, channels, origin(), info.name + " " + what);
+    if (image.width != info.intrinsics.width || image.height != info.intrinsics.height) {
       throw make_error(origin(), info.name + " " + what + " size",
                        "expected " + size_text(info.intrinsics.width, info.intrinsics.height) + ", found " +
-                           size_text(depth.width, depth.height));
+                           size_text(image.width, image.height));
     }
   }
 
@@ -658,11 +726,47 @@ void ScanWriter::write_clean_depth(int sensor, double timestamp, const ImageU16&
     const SensorInfo& info = impl_->sensor_info(sensor);
     if (!std::isfinite(timestamp)) throw make_error(impl_->origin(), info.name, "clean depth timestamp is not finite");
     impl_->check_depth_image(depth, info, "clean depth image");
-    const fs::path directory = impl_->directory->temp_path() / kGroundtruthDirName / "depth_clean" / info.name;
+    const fs::path directory = impl_->directory->temp_path() / kGroundtruthDirName / kCleanDepthDirName / info.name;
     impl_->create_directory(directory);
     path = directory / (format_timestamp(timestamp) + ".png");
   }
   write_png16(path, depth, impl_->png_compression);
+}
+
+void ScanWriter::write_groundtruth_normals(int sensor, double timestamp, const ImageF32& normal_cam) {
+  fs::path path;
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->check_not_committed();
+    const SensorInfo& info = impl_->sensor_info(sensor);
+    if (!std::isfinite(timestamp)) throw make_error(impl_->origin(), info.name, "normals timestamp is not finite");
+    impl_->check_frame_image(normal_cam, 3, info, "normal image");
+    path = groundtruth_normals_path(impl_->directory->temp_path(), info.name, timestamp);
+    impl_->create_directory(path.parent_path());
+  }
+  write_exr(path, normal_cam, normal_channels());
+}
+
+void ScanWriter::write_groundtruth_ids(int sensor, double timestamp, const ImageI32& triangle_id,
+                                       const ImageI32& material_id) {
+  fs::path path;
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->check_not_committed();
+    const SensorInfo& info = impl_->sensor_info(sensor);
+    if (!std::isfinite(timestamp)) throw make_error(impl_->origin(), info.name, "ids timestamp is not finite");
+    impl_->check_frame_image(triangle_id, 1, info, "triangle id image");
+    impl_->check_frame_image(material_id, 1, info, "material id image");
+    path = groundtruth_ids_path(impl_->directory->temp_path(), info.name, timestamp);
+    impl_->create_directory(path.parent_path());
+  }
+  // One file with both channels: a pixel's triangle and material stay together.
+  ImageI32 ids(triangle_id.width, triangle_id.height, 2);
+  for (std::size_t i = 0; i < triangle_id.data.size(); ++i) {
+    ids.data[2 * i] = triangle_id.data[i];
+    ids.data[2 * i + 1] = material_id.data[i];
+  }
+  write_exr_i32(path, ids, id_channels());
 }
 
 void ScanWriter::write_groundtruth_trajectory(int sensor, const std::vector<StampedPose>& poses) {

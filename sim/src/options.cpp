@@ -151,6 +151,8 @@ SimOptions sim_options_from_config(Config& c) {
   o.output.every = c.get_int("output.every", o.output.every, 1, 100000);
   o.output.max_frames = c.get_int("output.frames", o.output.max_frames, 0, 10000000);
   o.output.clean_depth = c.get_bool("output.clean_depth", o.output.clean_depth);
+  o.output.normals = c.get_bool("output.normals", o.output.normals);
+  o.output.ids = c.get_bool("output.ids", o.output.ids);
   o.output.png_compression = c.get_int("output.png_compression", o.output.png_compression, 0, 9);
   o.output.min_depth_coverage = c.get_double("output.min_depth_coverage", o.output.min_depth_coverage, 0.0, 1.0);
   o.check(c.origin());

@@ -183,12 +183,13 @@ Renderer::Renderer(const Scene& scene) : impl_(std::make_unique<Impl>(scene)) {
 
 Renderer::~Renderer() = default;
 
-RenderedView Renderer::allocate(const PinholeIntrinsics& k) {
+RenderedView Renderer::allocate(const PinholeIntrinsics& k, const RenderRequest& request) {
   RenderedView view;
   view.depth = ImageF32(k.width, k.height, 1, 0.f);
   view.rgb = ImageU8(k.width, k.height, 3, 0);
   view.incidence_cos = ImageF32(k.width, k.height, 1, 0.f);
   view.triangle_id = ImageI32(k.width, k.height, 1, -1);
+  if (request.normals) view.normal_cam = ImageF32(k.width, k.height, 3, 0.f);
   return view;
 }
 
@@ -246,9 +247,15 @@ void setup_packet(RTCRayHit8& packet, int* valid, const Eigen::Matrix3f& rotatio
 }  // namespace
 
 void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsics& k, int row_begin, int row_end,
-                           RenderedView& out) const {
+                           RenderedView& out, const RenderRequest& request) const {
   const Eigen::Matrix3f rotation = world_from_cam.linear().cast<float>();
   const Eigen::Vector3f origin = world_from_cam.translation().cast<float>();
+  const Eigen::Matrix3f cam_from_world_rotation = rotation.transpose();
+  if (request.normals &&
+      (out.normal_cam.width != k.width || out.normal_cam.height != k.height || out.normal_cam.channels != 3))
+    throw Error(
+        "Renderer::render_rows: normals requested, but `out` has no normal image of the view's size "
+        "(allocate it with allocate(intrinsics, request))");
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   // Primary camera rays are coherent: packets of 8 neighbouring pixels are Embree's fast path
@@ -268,6 +275,8 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
           out.incidence_cos.at(x, y) = 0.f;
           out.triangle_id.at(x, y) = -1;
           for (int c = 0; c < 3; ++c) out.rgb.at(x, y, c) = 0;
+          if (request.normals)
+            for (int c = 0; c < 3; ++c) out.normal_cam.at(x, y, c) = 0.f;
           continue;
         }
         const unsigned triangle = packet.hit.primID[lane];
@@ -279,6 +288,13 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
         const float ray_length = direction.norm();
         const float cos_incidence = std::abs(normal.dot(direction)) / ray_length;
         out.incidence_cos.at(x, y) = cos_incidence;
+        if (request.normals) {
+          // The side the ray arrives from: a one-sided mesh seen from behind still gets a normal
+          // that faces the camera, as the shading does.
+          const Eigen::Vector3f facing = normal.dot(direction) > 0.f ? Eigen::Vector3f(-normal) : normal;
+          const Eigen::Vector3f normal_cam = cam_from_world_rotation * facing;
+          for (int c = 0; c < 3; ++c) out.normal_cam.at(x, y, c) = normal_cam[c];
+        }
         // A pixel covers range / f metres across the ray, stretched by 1 / cos along the slope;
         // the geometric mean of the two keeps slanted floors sharp without aliasing.
         const float footprint = t * ray_length * inv_fx / std::sqrt(std::max(cos_incidence, 0.05f));
@@ -291,10 +307,11 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
   }
 }
 
-RenderedView Renderer::render(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics) const {
-  RenderedView view = allocate(intrinsics);
+RenderedView Renderer::render(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics,
+                              const RenderRequest& request) const {
+  RenderedView view = allocate(intrinsics, request);
   tbb::parallel_for(tbb::blocked_range<int>(0, intrinsics.height, 8), [&](const tbb::blocked_range<int>& rows) {
-    render_rows(world_from_cam, intrinsics, rows.begin(), rows.end(), view);
+    render_rows(world_from_cam, intrinsics, rows.begin(), rows.end(), view, request);
   });
   return view;
 }

@@ -142,7 +142,15 @@ std::string Simulator::rig_truth_json() const {
                 {"colour_noise_std", n.colour_noise_std}};
   j["output"] = {{"every", options_.output.every},
                  {"frames", options_.output.max_frames},
-                 {"clean_depth", options_.output.clean_depth}};
+                 {"clean_depth", options_.output.clean_depth},
+                 {"normals", options_.output.normals},
+                 {"ids", options_.output.ids}};
+  if (options_.output.ids) {
+    // What groundtruth/ids' material_id indexes: the names make the ids readable without the scene.
+    nlohmann::json names = nlohmann::json::array();
+    for (const Material& material : scene_.materials) names.push_back(material.name);
+    j["materials"] = names;
+  }
   j["calibration_error"] = {{"rotation_deg", options_.rig.calibration_error_deg},
                             {"translation_m", options_.rig.calibration_error_m}};
   return j.dump(2) + "\n";
@@ -154,7 +162,9 @@ SimulatedFrame Simulator::render_frame(const FrameTime& frame) const {
   out.index = frame.index;
   out.timestamp = frame.timestamp;
   out.world_from_cam = world_from_cam(frame.sensor, frame.timestamp);
-  RenderedView view = renderer_.render(out.world_from_cam, rig_.intrinsics);
+  RenderRequest request;
+  request.normals = options_.output.normals;
+  RenderedView view = renderer_.render(out.world_from_cam, rig_.intrinsics, request);
 
   // Noiseless ground-truth depth: the exact z, limited to the sensor's range.
   out.clean_depth = view.depth;
@@ -194,6 +204,16 @@ SimulatedFrame Simulator::render_frame(const FrameTime& frame) const {
   }
   out.rgb = std::move(view.rgb);
   out.triangle_id = std::move(view.triangle_id);
+  out.normal_cam = std::move(view.normal_cam);
+  if (options_.output.ids) {
+    // The scene's materials are the only grouping of triangles a mesh carries (objects made of one
+    // material share it), so this is a material/class id, not an instance id.
+    const std::vector<int>& triangle_material = scene_.mesh.triangle_material;
+    out.material_id = ImageI32(out.triangle_id.width, out.triangle_id.height, 1, -1);
+    if (!triangle_material.empty())
+      for (std::size_t i = 0; i < out.triangle_id.data.size(); ++i)
+        if (out.triangle_id.data[i] >= 0) out.material_id.data[i] = triangle_material[out.triangle_id.data[i]];
+  }
   return out;
 }
 
@@ -250,6 +270,9 @@ std::size_t Simulator::write_scan(const std::filesystem::path& scan_dir, bool ov
         writer.write_frame(sensor, frame.timestamp, simulated.rgb, depth_to_png_units(simulated.depth, 5000.0));
         if (options_.output.clean_depth)
           writer.write_clean_depth(sensor, frame.timestamp, depth_to_png_units(simulated.clean_depth, 5000.0));
+        if (options_.output.normals) writer.write_groundtruth_normals(sensor, frame.timestamp, simulated.normal_cam);
+        if (options_.output.ids)
+          writer.write_groundtruth_ids(sensor, frame.timestamp, simulated.triangle_id, simulated.material_id);
         truth[sensor].push_back({frame.timestamp, simulated.world_from_cam});
         progress.advance();
       }

@@ -46,4 +46,14 @@ constexpr std::int64_t kMaxExrPixels = std::int64_t(1) << 30;
 ImageF32 read_exr(const std::filesystem::path& path, const std::vector<std::string>& channel_names,
                   int expected_width = 0, int expected_height = 0);
 
+// 32-bit integer EXR (ids): named channels of OpenEXR's only integer type, UINT, holding each int32
+// by its bit pattern, so -1 reads as 4294967295 in other tools (numpy: .view(np.int32) gives -1).
+void write_exr_i32(const std::filesystem::path& path, const ImageI32& image,
+                   const std::vector<std::string>& channel_names);
+// Reads named UINT channels as int32 (bit pattern); the size checks of read_exr. A channel of
+// another type is an Error naming the file and the channel (never converted: a float cannot hold
+// every 32-bit id).
+ImageI32 read_exr_i32(const std::filesystem::path& path, const std::vector<std::string>& channel_names,
+                      int expected_width = 0, int expected_height = 0);
+
 }  // namespace panoscan

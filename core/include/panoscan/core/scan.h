@@ -11,6 +11,8 @@
 //     rig_truth.json           true extrinsics, axis pose, noise settings, seed
 //     mesh.ply                 ground-truth mesh in the scene frame
 //     depth_clean/camK/<ts>.png  noiseless depth (optional)
+//     normals/camK/<ts>.exr      unit normal of the hit triangle in camera K's frame (optional)
+//     ids/camK/<ts>.exr          hit triangle and its material, 32-bit (optional)
 //
 // The reader validates everything a reconstruction relies on and throws Error naming the file
 // and the field; the writer builds the directory atomically.
@@ -90,6 +92,25 @@ RigInfo rig_from_json(const std::string& text, const std::string& origin);
 std::filesystem::path groundtruth_dir(const std::filesystem::path& scan_dir);
 std::vector<StampedPose> read_groundtruth_trajectory(const std::filesystem::path& scan_dir, int sensor);
 
+// Per-frame ground truth of the noiseless ray (simulator options output.normals, output.ids), one
+// value per pixel of camera `sensor`'s frame at `timestamp` (the listing's timestamp):
+// - normals: 3 channels (EXR float channels R, G, B = x, y, z of the camera frame: x right, y down,
+//   z forward): the hit triangle's geometric unit normal turned to face the camera (its dot product
+//   with the pixel's ray is negative); 0, 0, 0 where the ray hits nothing.
+// - ids: 2 channels (EXR 32-bit UINT channels triangle_id, material_id, each int32 by its bit
+//   pattern): channel 0 the index of the hit triangle in groundtruth/mesh.ply (the scene mesh),
+//   channel 1 its material's index in the scene's material list (materials are shared by every
+//   object made of them: a material or class id, not an instance id); -1 (4294967295 in the file)
+//   where nothing is hit, and material -1 for a mesh without materials.
+// Unlike depth_clean they are not limited to the depth sensor's range. The readers check the size
+// against rig.json (and ids >= -1) and throw Error naming the file.
+std::filesystem::path groundtruth_normals_path(const std::filesystem::path& scan_dir, const std::string& sensor_name,
+                                               double timestamp);
+std::filesystem::path groundtruth_ids_path(const std::filesystem::path& scan_dir, const std::string& sensor_name,
+                                           double timestamp);
+ImageF32 read_groundtruth_normals(const ScanIndex& scan, int sensor, double timestamp);
+ImageI32 read_groundtruth_ids(const ScanIndex& scan, int sensor, double timestamp);
+
 // Writes a scan directory atomically: everything goes into a temporary sibling directory,
 // and commit() writes listings and rig.json and renames it into place. Frames of different
 // sensors may be written concurrently; frames of one sensor must arrive in timestamp order.
@@ -106,6 +127,10 @@ class ScanWriter {
   void add_frame_files(int sensor, double timestamp, const std::filesystem::path& rgb_file,
                        const std::filesystem::path& depth_file, FileTransfer transfer);
   void write_clean_depth(int sensor, double timestamp, const ImageU16& depth);
+  // The per-frame ground truth described at groundtruth_normals_path: `normal_cam` 3 channels,
+  // `triangle_id` and `material_id` 1 channel each, all of the sensor's image size.
+  void write_groundtruth_normals(int sensor, double timestamp, const ImageF32& normal_cam);
+  void write_groundtruth_ids(int sensor, double timestamp, const ImageI32& triangle_id, const ImageI32& material_id);
   void write_groundtruth_trajectory(int sensor, const std::vector<StampedPose>& poses);
   void write_groundtruth_file(const std::string& name, const std::string& bytes);  // e.g. rig_truth.json
   void write_groundtruth_mesh(const TriangleMesh& mesh);

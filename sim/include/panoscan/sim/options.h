@@ -97,6 +97,11 @@ struct OutputOptions {
   int every = 1;             // output.every: render every n-th frame of each camera (paper's n)
   int max_frames = 0;        // output.frames: frames per camera after `every` (0 = whole turn)
   bool clean_depth = false;  // output.clean_depth: also write noiseless depth
+  // Per-frame ground truth of the noiseless ray under groundtruth/ (format: core/scan.h,
+  // groundtruth_normals_path): the hit triangle's normal in the camera frame (EXR float), and the
+  // hit triangle's and its material's ids (EXR 32-bit UINT).
+  bool normals = false;      // output.normals: groundtruth/normals/camK/<ts>.exr
+  bool ids = false;          // output.ids: groundtruth/ids/camK/<ts>.exr
   int png_compression = 1;   // output.png_compression: 0..9
   // The scan is refused (naming the position) when fewer than this share of the pixels of a probe
   // of the turn (12 frames per camera, before anything is written) have depth in the sensor's

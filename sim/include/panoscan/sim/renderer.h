@@ -1,5 +1,6 @@
 // Embree ray-casting renderer of a scene for pinhole cameras: z-depth, shaded textured colour,
-// incidence angle, and the id of the hit triangle. Thread-safe: render() may run concurrently.
+// incidence angle, the id of the hit triangle, and on request its normal in the camera frame.
+// Thread-safe: render() may run concurrently.
 #pragma once
 
 #include <memory>
@@ -16,12 +17,15 @@ struct RenderedView {
   ImageU8 rgb;             // shaded colour
   ImageF32 incidence_cos;  // |cos(angle between ray and surface normal)|
   ImageI32 triangle_id;    // index into the scene mesh's triangles; -1 where nothing is hit
+  // Only with RenderRequest::normals (empty otherwise): the hit triangle's geometric unit normal in
+  // the camera frame (cam_from_world rotation of the world normal), turned to face the camera (its
+  // dot product with the pixel's ray is negative); 3 channels x, y, z; 0 where nothing is hit.
+  ImageF32 normal_cam;
 };
 
+// What a pinhole render produces beyond depth, colour, incidence and triangle ids (always made).
 struct RenderRequest {
-  bool depth = true;
-  bool colour = true;
-  bool triangle_ids = true;
+  bool normals = false;  // normal_cam: off by default, so views that do not need it skip the per-pixel cost
 };
 
 class Renderer {
@@ -32,16 +36,17 @@ class Renderer {
   Renderer& operator=(const Renderer&) = delete;
 
   // Renders rows [row_begin, row_end) of the view into `out` (allocated by the caller via
-  // allocate()); lets callers parallelise over rows.
+  // allocate() with the same request); lets callers parallelise over rows.
   void render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics, int row_begin, int row_end,
-                   RenderedView& out) const;
+                   RenderedView& out, const RenderRequest& request = {}) const;
   // Whole view, parallel over rows (oneTBB).
-  RenderedView render(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics) const;
-  static RenderedView allocate(const PinholeIntrinsics& intrinsics);
+  RenderedView render(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics,
+                      const RenderRequest& request = {}) const;
+  static RenderedView allocate(const PinholeIntrinsics& intrinsics, const RenderRequest& request = {});
 
   // Noiseless equirectangular panorama seen from the origin of `world_from_pano` (its z axis is
   // the panorama's up direction): `depth` holds the radial distance (not z), colour and ids as
-  // above, `incidence_cos` likewise. Used for ground-truth panoramas.
+  // above, `incidence_cos` likewise, no normals. Used for ground-truth panoramas.
   RenderedView render_equirectangular(const Rigid3d& world_from_pano, const Equirectangular& pano) const;
 
   // Bare Embree intersection of the same rays (reference for the speed benchmark): returns the

@@ -27,7 +27,9 @@ struct SimulatedFrame {
   ImageU8 rgb;
   ImageF32 depth;        // noisy (metres, 0 = invalid), before PNG quantisation
   ImageF32 clean_depth;  // noiseless z (range-limited), metres
-  ImageI32 triangle_id;
+  ImageI32 triangle_id;  // hit triangle of the noiseless ray, -1 = none (every hit, not range-limited)
+  ImageF32 normal_cam;   // only with output.normals: RenderedView::normal_cam
+  ImageI32 material_id;  // only with output.ids: the hit triangle's scene material, -1 = no hit or no materials
 };
 
 class Simulator {
