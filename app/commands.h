@@ -151,6 +151,7 @@ void run_export_prestitched(const ExportPrestitchedArguments& arguments);
 
 struct ExportModelArguments {
   std::string scan, out, poses = "ground-truth", config_file;
+  std::vector<std::string> panoramas;  // colmap only: panorama folders instead of a scan
   std::vector<std::string> overrides;
   int points_per_image = 100;  // colmap only
   int threads = -1;

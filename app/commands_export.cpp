@@ -1,5 +1,6 @@
 // `panoscan export prestitched|colmap|nerfstudio`: reading the arguments, choosing the poses,
 // calling the export library (export/exports.h), reporting.
+#include <filesystem>
 #include <iostream>
 
 #include <fmt/format.h>
@@ -9,8 +10,11 @@
 #include "panoscan/core/error.h"
 #include "panoscan/eval/groundtruth.h"
 #include "panoscan/export/exports.h"
+#include "panoscan/recon/panorama.h"
 
 namespace panoscan::app {
+
+namespace fs = std::filesystem;
 
 void run_export_prestitched(const ExportPrestitchedArguments& a) {
   if (a.stitch != "ex" && a.stitch != "gt")
@@ -48,10 +52,34 @@ RigTrajectory export_poses(const ExportModelArguments& a, const ScanIndex& scan)
 }  // namespace
 
 void run_export_colmap(const ExportModelArguments& a) {
-  const ScanIndex scan = read_scan_index(a.scan);
+  if (a.scan.empty() == a.panoramas.empty())
+    throw make_error("--scan", "", "give exactly one of --scan (a scan folder) or --panoramas (panorama folders)");
   ColmapExportOptions options;
   options.points_per_image = a.points_per_image;
   options.check("--points-per-image");
+  if (!a.panoramas.empty()) {
+    if (a.poses != "ground-truth" || !a.config_file.empty() || !a.overrides.empty())
+      throw make_error("--poses", "", "panoramas carry their own pose (panorama.json world_from_pano); no --poses");
+    std::vector<Panorama> panoramas;
+    panoramas.reserve(a.panoramas.size());
+    std::vector<ColmapPanorama> inputs;
+    for (std::size_t k = 0; k < a.panoramas.size(); ++k) {
+      panoramas.push_back(read_panorama(a.panoramas[k]));
+      // Folder names as image folders; numbered when two panoramas share one.
+      std::string name = fs::path(a.panoramas[k]).lexically_normal().filename().string();
+      if (name.empty()) name = fs::path(a.panoramas[k]).lexically_normal().parent_path().filename().string();
+      for (const ColmapPanorama& other : inputs)
+        if (other.name == name) name = fmt::format("{:02d}-{}", k, name);
+      inputs.push_back({name, nullptr});
+    }
+    for (std::size_t k = 0; k < inputs.size(); ++k) inputs[k].panorama = &panoramas[k];
+    const ColmapExportReport report = export_colmap_panoramas(inputs, a.out, options, a.overwrite);
+    std::cout << fmt::format(
+        "COLMAP text model of {} panoramas as cube faces: {} images, {} points with {} observations; wrote {}\n",
+        inputs.size(), report.images, report.points, report.observations, a.out);
+    return;
+  }
+  const ScanIndex scan = read_scan_index(a.scan);
   const RigTrajectory poses = export_poses(a, scan);
   const ColmapExportReport report = export_colmap(scan, poses, a.out, options, a.overwrite);
   std::cout << fmt::format(
@@ -61,6 +89,7 @@ void run_export_colmap(const ExportModelArguments& a) {
 }
 
 void run_export_nerfstudio(const ExportModelArguments& a) {
+  if (a.scan.empty()) throw make_error("--scan", "", "a scan folder is required");
   const ScanIndex scan = read_scan_index(a.scan);
   const RigTrajectory poses = export_poses(a, scan);
   const NerfstudioExportReport report = export_nerfstudio(scan, poses, a.out, a.overwrite);

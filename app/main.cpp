@@ -138,7 +138,7 @@ int main(int argc, char** argv) {
   export_prestitched->add_flag("--overwrite", prestitched_args.overwrite, "replace an existing output folder");
   ExportModelArguments colmap_args, nerfstudio_args;
   auto add_model_options = [](CLI::App* cmd, ExportModelArguments& args) {
-    cmd->add_option("--scan", args.scan, "scan directory")->required();
+    cmd->add_option("--scan", args.scan, "scan directory");
     cmd->add_option("--poses", args.poses, "ground-truth, tracked, or a folder from recon track")->capture_default_str();
     cmd->add_option("--out", args.out, "output folder")->required();
     cmd->add_option("--config", args.config_file, "YAML/JSON config (keys track.*, frontend.* for --poses tracked)");
@@ -149,6 +149,8 @@ int main(int argc, char** argv) {
   CLI::App* export_colmap = export_cmd->add_subcommand(
       "colmap", "a COLMAP text model (cameras.txt, images.txt, points3D.txt) with the images");
   add_model_options(export_colmap, colmap_args);
+  export_colmap->add_option("--panoramas", colmap_args.panoramas,
+                            "panorama folders instead of --scan: each as six cube faces, posed by its stored pose");
   export_colmap->add_option("--points-per-image", colmap_args.points_per_image,
                             "3D points back-projected from each image's depth (0 = none)")
       ->capture_default_str();

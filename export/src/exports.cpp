@@ -16,6 +16,7 @@
 #include "panoscan/core/pose_json.h"
 #include "panoscan/core/trajectory.h"
 #include "panoscan/core/version.h"
+#include "panoscan/recon/panorama.h"
 
 namespace panoscan {
 
@@ -134,37 +135,35 @@ void ColmapExportOptions::check(const std::string& origin) const {
     throw make_error(origin, "export.colmap.depth_agreement", "must be in (0, 1)");
 }
 
-ColmapExportReport export_colmap(const ScanIndex& scan, const RigTrajectory& poses, const fs::path& out,
-                                 const ColmapExportOptions& options, bool overwrite) {
-  options.check("<colmap export options>");
-  require_matching(poses, scan, "poses");
-  AtomicDirectory dir(out, overwrite);
-  const int sensors = int(scan.rig.sensors.size());
-  ColmapExportReport report;
+namespace {
 
-  // One image per frame: id, pose, depth (for the tracks), colour (for the points' colour).
-  struct Image {
-    int id, sensor;
-    std::size_t frame;
-    Rigid3d cam_from_world;
-    ImageF32 depth;
-    ImageU8 rgb;
+// One image of a COLMAP model: its camera, pose, pixels (depth and colour for the 3D points) and
+// where its PNG comes from (a scan frame's file is copied; a rendered view is written).
+struct ColmapView {
+  int camera = 0;  // index into the model's cameras
+  Rigid3d cam_from_world = Rigid3d::Identity();
+  ImageF32 depth;  // z along the optical axis, 0 = none
+  ImageU8 rgb;
+  std::string name;      // under images/
+  fs::path source_file;  // empty: write `rgb`
+};
+
+// Writes cameras.txt, images.txt, points3D.txt and images/ into `dir` (see ColmapExportOptions
+// for the points).
+ColmapExportReport write_colmap_model(const std::vector<PinholeIntrinsics>& cameras, std::vector<ColmapView>& views,
+                                      const fs::path& dir, const ColmapExportOptions& options) {
+  ColmapExportReport report;
+  struct Observations {
     std::vector<Eigen::Vector2d> points2d;  // COLMAP pixel convention
     std::vector<long> point_ids;
   };
-  std::vector<Image> images;
-  for (int s = 0; s < sensors; ++s)
-    for (std::size_t f = 0; f < scan.frames[s].size(); ++f) {
-      Image image{int(images.size()) + 1, s, f, poses.world_from_cam[s][f].world_from_cam.inverse(), {}, {}, {}, {}};
-      if (options.points_per_image > 0) {
-        RgbdFrame frame = load_frame(scan, s, f);
-        image.depth = std::move(frame.depth);
-        image.rgb = std::move(frame.rgb);
-      }
-      images.push_back(std::move(image));
-      copy_into(scan.root / scan.rig.sensors[s].name / scan.frames[s][f].rgb_file,
-                dir.temp_path() / "images" / image_name(scan, s, f));
-    }
+  std::vector<Observations> observed(views.size());
+  for (const ColmapView& view : views) {
+    if (view.source_file.empty())
+      write_png(dir / "images" / view.name, view.rgb);
+    else
+      copy_into(view.source_file, dir / "images" / view.name);
+  }
 
   // Points: a grid of valid depth pixels per image, observed wherever another image's depth agrees.
   struct Point {
@@ -173,62 +172,61 @@ ColmapExportReport export_colmap(const ScanIndex& scan, const RigTrajectory& pos
     std::vector<std::pair<int, int>> track;  // (image id, point2d index)
   };
   std::vector<Point> points;
-  for (Image& source : images) {
-    if (options.points_per_image == 0) break;
-    const PinholeIntrinsics& in = scan.rig.sensors[source.sensor].intrinsics;
+  for (std::size_t source = 0; source < views.size() && options.points_per_image > 0; ++source) {
+    const ColmapView& view = views[source];
+    const PinholeIntrinsics& in = cameras[view.camera];
     const int stride = std::max(1, int(std::lround(std::sqrt(double(in.width) * in.height / options.points_per_image))));
     for (int v = stride / 2; v < in.height; v += stride)
       for (int u = stride / 2; u < in.width; u += stride) {
-        const float z = source.depth.at(u, v);
+        const float z = view.depth.at(u, v);
         if (!(z > 0)) continue;
         Point point;
-        point.world = source.cam_from_world.inverse() * in.backproject(u, v, z);
-        point.rgb = {source.rgb.at(u, v, 0), source.rgb.at(u, v, 1), source.rgb.at(u, v, 2)};
+        point.world = view.cam_from_world.inverse() * in.backproject(u, v, z);
+        point.rgb = {view.rgb.at(u, v, 0), view.rgb.at(u, v, 1), view.rgb.at(u, v, 2)};
         const long id = long(points.size()) + 1;
-        for (Image& other : images) {
+        for (std::size_t other = 0; other < views.size(); ++other) {
           Eigen::Vector2d pixel;
-          if (&other == &source) {
+          if (other == source) {
             pixel = Eigen::Vector2d(u, v);
           } else {
-            const PinholeIntrinsics& k = scan.rig.sensors[other.sensor].intrinsics;
-            const Eigen::Vector3d in_other = other.cam_from_world * point.world;
+            const PinholeIntrinsics& k = cameras[views[other].camera];
+            const Eigen::Vector3d in_other = views[other].cam_from_world * point.world;
             if (in_other.z() <= 0) continue;
             pixel = k.project(in_other);
             if (!k.contains(pixel)) continue;
-            const float measured = other.depth.at(int(std::lround(pixel.x())), int(std::lround(pixel.y())));
+            const float measured = views[other].depth.at(int(std::lround(pixel.x())), int(std::lround(pixel.y())));
             if (!(measured > 0) || std::abs(measured - in_other.z()) > options.depth_agreement * in_other.z()) continue;
           }
-          point.track.emplace_back(other.id, int(other.points2d.size()));
-          other.points2d.push_back(pixel + Eigen::Vector2d(0.5, 0.5));
-          other.point_ids.push_back(id);
+          point.track.emplace_back(int(other) + 1, int(observed[other].points2d.size()));
+          observed[other].points2d.push_back(pixel + Eigen::Vector2d(0.5, 0.5));
+          observed[other].point_ids.push_back(id);
         }
         report.observations += point.track.size();
         points.push_back(std::move(point));
       }
   }
 
-  std::ostringstream cameras;
-  cameras << "# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
-          << "# Number of cameras: " << sensors << "\n";
-  for (int s = 0; s < sensors; ++s) {
-    const PinholeIntrinsics& k = scan.rig.sensors[s].intrinsics;
-    cameras << fmt::format("{} PINHOLE {} {} {:.9g} {:.9g} {:.9g} {:.9g}\n", s + 1, k.width, k.height, k.fx, k.fy,
-                           k.cx + 0.5, k.cy + 0.5);
+  std::ostringstream camera_lines;
+  camera_lines << "# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
+               << "# Number of cameras: " << cameras.size() << "\n";
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    const PinholeIntrinsics& k = cameras[c];
+    camera_lines << fmt::format("{} PINHOLE {} {} {:.9g} {:.9g} {:.9g} {:.9g}\n", c + 1, k.width, k.height, k.fx, k.fy,
+                                k.cx + 0.5, k.cy + 0.5);
   }
   std::ostringstream image_lines;
   image_lines << "# Image list with two lines of data per image:\n"
               << "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n#   POINTS2D[] as (X, Y, POINT3D_ID)\n"
-              << "# Number of images: " << images.size() << "\n";
-  for (const Image& image : images) {
-    const Eigen::Quaterniond q(image.cam_from_world.linear());
-    const Eigen::Vector3d& t = image.cam_from_world.translation();
-    image_lines << fmt::format("{} {:.12g} {:.12g} {:.12g} {:.12g} {:.12g} {:.12g} {:.12g} {} {}\n", image.id, q.w(),
-                               q.x(), q.y(), q.z(), t.x(), t.y(), t.z(), image.sensor + 1,
-                               image_name(scan, image.sensor, image.frame));
+              << "# Number of images: " << views.size() << "\n";
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    const Eigen::Quaterniond q(views[i].cam_from_world.linear());
+    const Eigen::Vector3d& t = views[i].cam_from_world.translation();
+    image_lines << fmt::format("{} {:.12g} {:.12g} {:.12g} {:.12g} {:.12g} {:.12g} {:.12g} {} {}\n", i + 1, q.w(), q.x(),
+                               q.y(), q.z(), t.x(), t.y(), t.z(), views[i].camera + 1, views[i].name);
     std::string line;
-    for (std::size_t k = 0; k < image.points2d.size(); ++k)
-      line += fmt::format("{}{:.4f} {:.4f} {}", k ? " " : "", image.points2d[k].x(), image.points2d[k].y(),
-                          image.point_ids[k]);
+    for (std::size_t k = 0; k < observed[i].points2d.size(); ++k)
+      line += fmt::format("{}{:.4f} {:.4f} {}", k ? " " : "", observed[i].points2d[k].x(), observed[i].points2d[k].y(),
+                          observed[i].point_ids[k]);
     image_lines << line << "\n";
   }
   std::ostringstream point_lines;
@@ -242,12 +240,116 @@ ColmapExportReport export_colmap(const ScanIndex& scan, const RigTrajectory& pos
     for (const auto& [image, index] : point.track) point_lines << " " << image << " " << index;
     point_lines << "\n";
   }
-  write_file_atomic(dir.temp_path() / "cameras.txt", cameras.str());
-  write_file_atomic(dir.temp_path() / "images.txt", image_lines.str());
-  write_file_atomic(dir.temp_path() / "points3D.txt", point_lines.str());
-  report.cameras = std::size_t(sensors);
-  report.images = images.size();
+  write_file_atomic(dir / "cameras.txt", camera_lines.str());
+  write_file_atomic(dir / "images.txt", image_lines.str());
+  write_file_atomic(dir / "points3D.txt", point_lines.str());
+  report.cameras = cameras.size();
+  report.images = views.size();
   report.points = points.size();
+  return report;
+}
+
+// The six faces of a cube around a panorama centre: pano_from_face rotations (columns: the face
+// camera's x right, y down, z forward in the panorama frame, z up), 90 degrees each.
+std::vector<std::pair<std::string, Eigen::Matrix3d>> cube_faces() {
+  std::vector<std::pair<std::string, Eigen::Matrix3d>> faces;
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  const std::pair<const char*, Eigen::Vector3d> horizontal[] = {
+      {"px", Eigen::Vector3d::UnitX()}, {"py", Eigen::Vector3d::UnitY()}, {"nx", -Eigen::Vector3d::UnitX()},
+      {"ny", -Eigen::Vector3d::UnitY()}};
+  for (const auto& [name, forward] : horizontal) {
+    Eigen::Matrix3d r;
+    r.col(2) = forward;
+    r.col(1) = -up;                     // image rows go down
+    r.col(0) = r.col(1).cross(r.col(2));
+    faces.emplace_back(name, r);
+  }
+  Eigen::Matrix3d top, bottom;
+  // Looking up: x right = -y, y down = +x of the panorama frame; looking down: y down = -x.
+  top.col(0) = -Eigen::Vector3d::UnitY();
+  top.col(1) = Eigen::Vector3d::UnitX();
+  top.col(2) = up;
+  bottom.col(0) = -Eigen::Vector3d::UnitY();
+  bottom.col(1) = -Eigen::Vector3d::UnitX();
+  bottom.col(2) = -up;
+  faces.emplace_back("pz", top);
+  faces.emplace_back("nz", bottom);
+  return faces;
+}
+
+}  // namespace
+
+ColmapExportReport export_colmap(const ScanIndex& scan, const RigTrajectory& poses, const fs::path& out,
+                                 const ColmapExportOptions& options, bool overwrite) {
+  options.check("<colmap export options>");
+  require_matching(poses, scan, "poses");
+  AtomicDirectory dir(out, overwrite);
+  std::vector<PinholeIntrinsics> cameras;
+  for (const SensorInfo& sensor : scan.rig.sensors) cameras.push_back(sensor.intrinsics);
+  std::vector<ColmapView> views;
+  for (int s = 0; s < int(scan.rig.sensors.size()); ++s)
+    for (std::size_t f = 0; f < scan.frames[s].size(); ++f) {
+      ColmapView view;
+      view.camera = s;
+      view.cam_from_world = poses.world_from_cam[s][f].world_from_cam.inverse();
+      view.name = image_name(scan, s, f);
+      view.source_file = scan.root / scan.rig.sensors[s].name / scan.frames[s][f].rgb_file;
+      if (options.points_per_image > 0) {
+        RgbdFrame frame = load_frame(scan, s, f);
+        view.depth = std::move(frame.depth);
+        view.rgb = std::move(frame.rgb);
+      }
+      views.push_back(std::move(view));
+    }
+  const ColmapExportReport report = write_colmap_model(cameras, views, dir.temp_path(), options);
+  dir.commit();
+  return report;
+}
+
+ColmapExportReport export_colmap_panoramas(const std::vector<ColmapPanorama>& panoramas, const fs::path& out,
+                                           const ColmapExportOptions& options, bool overwrite) {
+  options.check("<colmap export options>");
+  if (panoramas.empty()) throw make_error(out.string(), "--panoramas", "no panoramas to export");
+  const int height = panoramas.front().panorama->pano.height;
+  for (const ColmapPanorama& p : panoramas)
+    if (p.panorama->pano.height != height)
+      throw make_error(p.name, "height", fmt::format("{} rows, the first panorama has {}: one cube size for all",
+                                                     p.panorama->pano.height, height));
+  // Faces of H/2 pixels: the equator's sampling (2H columns for 360 degrees, H/2 for a face's 90).
+  const int size = std::max(2, height / 2);
+  PinholeIntrinsics face;
+  face.width = face.height = size;
+  face.fx = face.fy = 0.5 * size;
+  face.cx = face.cy = 0.5 * (size - 1);
+  AtomicDirectory dir(out, overwrite);
+  std::vector<ColmapView> views;
+  for (const ColmapPanorama& p : panoramas) {
+    const Panorama& pano = *p.panorama;
+    const int w = pano.pano.width(), h = pano.pano.height;
+    for (const auto& [face_name, pano_from_face] : cube_faces()) {
+      ColmapView view;
+      view.camera = 0;
+      view.cam_from_world = (pano.world_from_pano * make_rigid(pano_from_face, Eigen::Vector3d::Zero())).inverse();
+      view.name = p.name + "/" + face_name + ".png";
+      view.rgb = ImageU8(size, size, 3, 0);
+      view.depth = ImageF32(size, size, 1, 0.f);
+      for (int v = 0; v < size; ++v)
+        for (int u = 0; u < size; ++u) {
+          const Eigen::Vector3d ray((u - face.cx) / face.fx, (v - face.cy) / face.fy, 1.0);
+          const Eigen::Vector2d px = pano.pano.pixel(pano_from_face * ray);
+          // Nearest panorama pixel (columns wrap): colour and depth of one measurement, no blending
+          // across depth edges.
+          const int pu = ((int(std::lround(px.x())) % w) + w) % w;
+          const int pv = std::clamp(int(std::lround(px.y())), 0, h - 1);
+          for (int c = 0; c < 3; ++c)
+            view.rgb.at(u, v, c) = std::uint8_t(std::clamp(pano.colour.at(pu, pv, c) * 255.f + 0.5f, 0.f, 255.f));
+          const float radial = pano.depth.at(pu, pv);
+          if (radial > 0) view.depth.at(u, v) = float(radial / ray.norm());  // radial distance -> z
+        }
+      views.push_back(std::move(view));
+    }
+  }
+  const ColmapExportReport report = write_colmap_model({face}, views, dir.temp_path(), options);
   dir.commit();
   return report;
 }

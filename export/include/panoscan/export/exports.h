@@ -6,7 +6,8 @@
 //     settings file), scene_from_sequence.txt (the first stitched frame's true pose, 4x4: where an
 //     outside system's world lies in the scene; with ground truth only) and export.json.
 //   - export_colmap: a COLMAP text model (cameras.txt, images.txt, points3D.txt) with the images
-//     under images/, posed by the given trajectory (COLMAP's model_analyzer reads it).
+//     under images/, posed by the given trajectory (COLMAP's model_analyzer reads it); of
+//     panoramas as cube faces (export_colmap_panoramas).
 //   - export_nerfstudio: nerfstudio's transforms.json with per-frame intrinsics and depth paths.
 // Pixel conventions: PanoScan puts pixel centres at integer coordinates (OpenCV, TUM); COLMAP and
 // nerfstudio put the first pixel's centre at (0.5, 0.5), so their cx, cy and 2D points are ours
@@ -16,12 +17,15 @@
 #include <cstddef>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "panoscan/core/scan.h"
 #include "panoscan/recon/prestitched.h"
 #include "panoscan/recon/rig_trajectory.h"
 
 namespace panoscan {
+
+struct Panorama;
 
 struct PrestitchedExportReport {
   PinholeIntrinsics intrinsics;   // the stitched camera
@@ -54,6 +58,19 @@ struct ColmapExportReport {
 // One COLMAP camera per sensor (PINHOLE), one image per frame named camK/<timestamp>.png.
 ColmapExportReport export_colmap(const ScanIndex& scan, const RigTrajectory& poses, const std::filesystem::path& out,
                                  const ColmapExportOptions& options, bool overwrite);
+
+// Panoramas as a COLMAP model: each panorama becomes the six 90-degree faces of a cube around its
+// centre (COLMAP has no equirectangular camera), H/2 x H/2 pixels, one PINHOLE camera for all,
+// posed by the panorama's world_from_pano; images named <name>/<face>.png, faces px py nx ny (the
+// horizontal directions +x, +y, -x, -y of the panorama frame) and pz nz (up, down). The faces take
+// the nearest panorama pixel's colour and depth. All panoramas must have one height.
+struct ColmapPanorama {
+  std::string name;          // unique: the images' folder
+  const Panorama* panorama;  // must outlive the call
+};
+ColmapExportReport export_colmap_panoramas(const std::vector<ColmapPanorama>& panoramas,
+                                           const std::filesystem::path& out, const ColmapExportOptions& options,
+                                           bool overwrite);
 
 struct NerfstudioExportReport {
   std::size_t frames = 0;
