@@ -29,6 +29,7 @@
 #include "panoscan/eval/mesh_distance.h"
 #include "panoscan/recon/panorama.h"
 #include "panoscan/recon/placement.h"
+#include "panoscan/recon/poses.h"
 #include "panoscan/recon/scene.h"
 #include "panoscan/recon/tracking.h"
 #include "panoscan/scenes/scenes.h"
@@ -261,17 +262,6 @@ void run_recon_track(const ReconTrackArguments& a) {
         result.verdict.first_failure());
 }
 
-RigTrajectory scan_trajectory(const std::string& poses, const std::string& scan_dir, const ScanIndex& scan,
-                              const TrackingOptions& tracking) {
-  if (poses == "ground-truth") return eval::groundtruth_rig_trajectory(scan_dir);
-  if (poses == "tracked") {
-    TrackingResult tracked = track_scan(scan, tracking);
-    require_reliable_tracking(tracked, tracking, scan_dir);
-    return std::move(tracked.trajectory);
-  }
-  return read_rig_trajectory(poses, scan);
-}
-
 namespace {
 
 void refuse_existing(const std::string& out, bool overwrite) {
@@ -303,7 +293,7 @@ void run_recon_panorama(const ReconPanoramaArguments& a) {
   config.check_all_used();
   refuse_existing(a.out, a.overwrite);
   const ScanIndex scan = read_scan_index(a.scan);
-  const RigTrajectory trajectory = scan_trajectory(a.poses, a.scan, scan, tracking);
+  const RigTrajectory trajectory = scan_poses(a.poses, a.scan, scan, tracking);
   const PanoramaResult result = build_panorama(scan, trajectory, options);
   write_panorama(a.out, result.panorama, a.overwrite);
   std::cout << fmt::format(

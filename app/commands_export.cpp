@@ -10,6 +10,7 @@
 #include "panoscan/core/error.h"
 #include "panoscan/eval/groundtruth.h"
 #include "panoscan/export/exports.h"
+#include "panoscan/recon/poses.h"
 #include "panoscan/recon/panorama.h"
 
 namespace panoscan::app {
@@ -46,7 +47,7 @@ RigTrajectory export_poses(const ExportModelArguments& a, const ScanIndex& scan)
   if (a.threads >= 0) config.set("threads", std::to_string(a.threads));
   const TrackingOptions tracking = tracking_options_from_config(config);
   config.check_all_used();
-  return scan_trajectory(a.poses, a.scan, scan, tracking);
+  return scan_poses(a.poses, a.scan, scan, tracking);
 }
 
 }  // namespace

@@ -7,6 +7,8 @@ cd "$(dirname "$0")/.."
 build_dir="${1:-build}"
 
 # clang-14 + libfuzzer-14-dev: the fuzz build (scripts/fuzz.sh); the tests replay the corpora with g++.
+# pybind11-dev, python3-dev, python3-pytest: the Python module (python/) and its pytest tests, for
+# Debian's python3 (python3-numpy above).
 # colmap: export_test checks `export colmap` with COLMAP's own model_analyzer.
 # snakemake, slurm-wlm, munge: the workflow (workflow/Snakefile) and its Slurm test, which starts a one-node
 # cluster of its own (tests/cluster/run_cluster_test.sh).
@@ -20,6 +22,7 @@ packages=(
   libopenblas0-pthread
   libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
   python3-matplotlib python3-numpy
+  pybind11-dev python3-dev python3-pytest
   clang-14 libfuzzer-14-dev
   snakemake slurm-wlm munge
   colmap

@@ -128,7 +128,22 @@ TEST_F(ExportTest, PrestitchedIsATumSequenceThatImportsBack) {
   EXPECT_EQ(read_json_file(out_gt / "export.json").at("stitch"), "gt");
 }
 
-Eigen::Quaterniond quaternion_wxyz(double w, double x, double y, double z) { return Eigen::Quaterniond(w, x, y, z); }
+// One image line of COLMAP's images.txt: "IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME".
+struct ColmapImage {
+  int camera = 0;
+  Rigid3d cam_from_world = Rigid3d::Identity();
+  std::string name;
+};
+
+ColmapImage parse_image_line(const std::string& line) {
+  std::istringstream in(line);
+  int id;
+  double qw, qx, qy, qz, tx, ty, tz;
+  ColmapImage image;
+  in >> id >> qw >> qx >> qy >> qz >> tx >> ty >> tz >> image.camera >> image.name;
+  image.cam_from_world = make_rigid(Eigen::Quaterniond(qw, qx, qy, qz).normalized(), Eigen::Vector3d(tx, ty, tz));
+  return image;
+}
 
 TEST_F(ExportTest, ColmapModelHasTheTruePosesAndConsistentTracks) {
   const ScanIndex scan = read_scan_index(scan_dir());
@@ -173,17 +188,14 @@ TEST_F(ExportTest, ColmapModelHasTheTruePosesAndConsistentTracks) {
   std::size_t observations = 0;
   double worst_px = 0;
   for (std::size_t k = 0; k < lines.size(); k += 2) {
-    std::istringstream in(lines[k]);
-    int id, camera;
-    double qw, qx, qy, qz, tx, ty, tz;
-    std::string name;
-    in >> id >> qw >> qx >> qy >> qz >> tx >> ty >> tz >> camera >> name;
-    const int sensor = camera - 1;
+    const ColmapImage image = parse_image_line(lines[k]);
+    const int camera = image.camera, sensor = camera - 1;
+    const std::string& name = image.name;
     const std::string ts = fs::path(name).stem().string();
     std::size_t frame = 0;
     while (format_timestamp(scan.frames[sensor][frame].timestamp) != ts) ++frame;
     EXPECT_TRUE(fs::exists(out / "images" / name)) << name;
-    const Rigid3d cam_from_world = make_rigid(quaternion_wxyz(qw, qx, qy, qz).normalized(), Eigen::Vector3d(tx, ty, tz));
+    const Rigid3d& cam_from_world = image.cam_from_world;
     EXPECT_TRUE(cam_from_world.isApprox(truth.world_from_cam[sensor][frame].world_from_cam.inverse(), 1e-8)) << name;
     std::istringstream obs(lines[k + 1]);
     double u, v;
@@ -248,13 +260,9 @@ TEST(ExportPanoramas, CubeFacesSeeWhatAPinholeCameraAtThePanoramaCentreSees) {
   ASSERT_EQ(lines.size(), 12u);
   std::vector<Eigen::Vector3d> forwards;
   for (std::size_t k = 0; k < lines.size(); k += 2) {
-    std::istringstream in(lines[k]);
-    int id, camera;
-    double qw, qx, qy, qz, tx, ty, tz;
-    std::string name;
-    in >> id >> qw >> qx >> qy >> qz >> tx >> ty >> tz >> camera >> name;
-    const Rigid3d world_from_face =
-        make_rigid(Eigen::Quaterniond(qw, qx, qy, qz).normalized(), Eigen::Vector3d(tx, ty, tz)).inverse();
+    const ColmapImage image = parse_image_line(lines[k]);
+    const std::string& name = image.name;
+    const Rigid3d world_from_face = image.cam_from_world.inverse();
     EXPECT_TRUE(world_from_face.translation().isApprox(panorama.world_from_pano.translation(), 1e-9)) << name;
     EXPECT_NEAR(world_from_face.linear().determinant(), 1.0, 1e-9);
     forwards.push_back(world_from_face.linear().col(2));

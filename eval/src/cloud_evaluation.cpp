@@ -100,10 +100,15 @@ CloudEvalOptions cloud_eval_options_from_config(Config& config) {
 
 CloudEvalReport evaluate_cloud_files(const std::filesystem::path& mesh_path, const std::filesystem::path& cloud_path,
                                      const CloudEvalOptions& options) {
+  return evaluate_cloud_points(mesh_path, read_ply_point_cloud(cloud_path), cloud_path.string(), options);
+}
+
+CloudEvalReport evaluate_cloud_points(const std::filesystem::path& mesh_path, PointCloud cloud,
+                                      const std::string& cloud_name, const CloudEvalOptions& options) {
   const auto start = Clock::now();
   CloudEvalReport report;
   report.mesh_path = mesh_path;
-  report.cloud_path = cloud_path;
+  report.cloud_path = cloud_name;
   report.options = options;
   if (options.histogram_bins <= 0) throw make_error("", "histogram.bins", "must be positive");
   if (options.threads < 0) throw make_error("", "threads", "must be >= 0 (0 = all cores)");
@@ -111,8 +116,6 @@ CloudEvalReport evaluate_cloud_files(const std::filesystem::path& mesh_path, con
     report.options.metrics.completeness.visibility.viewpoints.push_back(mean_camera_centre(trajectory));
   report.options.metrics.check();
 
-  const std::string cloud_name = cloud_path.string();
-  PointCloud cloud = read_ply_point_cloud(cloud_path);
   if (!options.scene_from_cloud.isApprox(Rigid3d::Identity(), 0.0))
     for (auto& p : cloud.positions) p = options.scene_from_cloud * p;
   if (cloud.empty()) throw make_error(cloud_name, "element vertex", "the cloud has no points: nothing to evaluate");

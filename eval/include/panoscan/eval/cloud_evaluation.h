@@ -72,6 +72,10 @@ struct CloudEvalReport {
 // input: missing/corrupt files, a mesh without triangles, an empty cloud, NaN coordinates.
 CloudEvalReport evaluate_cloud_files(const std::filesystem::path& mesh_path, const std::filesystem::path& cloud_path,
                                      const CloudEvalOptions& options = {});
+// The same for a cloud in memory (the Python module's arrays); `cloud_name` names it in errors and
+// in the report.
+CloudEvalReport evaluate_cloud_points(const std::filesystem::path& mesh_path, PointCloud cloud,
+                                      const std::string& cloud_name, const CloudEvalOptions& options = {});
 
 // Human-readable summary in millimetres (what the CLI prints).
 std::string cloud_report_to_text(const CloudEvalReport& report);
