@@ -165,8 +165,18 @@ struct DemoArguments {
   int threads = -1;
 };
 // Simulates office SO-1 and SO-3, reconstructs the scene with tracked poses and prints the RMSE
-// of align-only / average / MAP integration against the ground-truth mesh.
+// of align-only / average / MAP integration against the ground-truth mesh; writes the scans, the
+// panoramas, the tracked poses, the clouds, the table as a record (demo.md, demo.json) and
+// report.html, and prints the report's path.
 void run_demo(const DemoArguments& arguments);
+
+struct ReportArguments {
+  std::vector<std::string> results;  // result folders (or eval/table JSON files)
+  std::string out = "report.html";
+  std::string title;                 // default: "PanoScan results"
+};
+// One self-contained HTML page of what the result folders hold (eval/html_report.h).
+void run_report(const ReportArguments& arguments);
 
 struct TablesArguments {
   std::vector<std::string> names;  // table names, "all" or "list"

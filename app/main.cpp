@@ -165,6 +165,19 @@ int main(int argc, char** argv) {
   demo_cmd->add_option("--out", demo_args.out, "output folder (replaced)")->capture_default_str();
   demo_cmd->add_option("--threads", demo_args.threads, "worker threads (0 = all cores)");
 
+  // report
+  ReportArguments report_args;
+  CLI::App* report_cmd = app.add_subcommand(
+      "report", "one self-contained HTML page of result folders: tables beside the paper's, previews, plots");
+  report_cmd
+      ->add_option("--results", report_args.results,
+                   "result folders: table records, panoramas, track folders, scans, demo or scene folders, or "
+                   "folders of them (searched 5 levels down); also eval --json files")
+      ->required()
+      ->expected(1, -1);
+  report_cmd->add_option("--out", report_args.out, "output HTML file (written atomically)")->capture_default_str();
+  report_cmd->add_option("--title", report_args.title, "the page's title");
+
   // tables
   TablesArguments tables_args;
   CLI::App* tables_cmd = app.add_subcommand(
@@ -359,6 +372,8 @@ int main(int argc, char** argv) {
       run_tables(tables_args);
     } else if (*demo_cmd) {
       run_demo(demo_args);
+    } else if (*report_cmd) {
+      run_report(report_args);
     }
   } catch (const Error& e) {
     std::cerr << "panoscan: " << e.what() << "\n";

@@ -10,6 +10,7 @@ build_dir="${1:-build}"
 # pybind11-dev, python3-dev, python3-pytest: the Python module (python/) and its pytest tests, for
 # Debian's python3 (python3-numpy above).
 # colmap: export_test checks `export colmap` with COLMAP's own model_analyzer.
+# chromium: report_browser_test opens `panoscan report`'s page in headless Chromium (images loaded, tables there).
 # snakemake, slurm-wlm, munge: the workflow (workflow/Snakefile) and its Slurm test, which starts a one-node
 # cluster of its own (tests/cluster/run_cluster_test.sh).
 # libopenblas0-pthread: the BLAS/LAPACK alternative for CHOLMOD in the tracking solve (2x faster than
@@ -26,6 +27,7 @@ packages=(
   clang-14 libfuzzer-14-dev
   snakemake slurm-wlm munge
   colmap
+  chromium
 )
 
 missing=()

@@ -8,6 +8,7 @@
 
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/pose_json.h"
+#include "panoscan/core/version.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/json_file.h"
 
@@ -57,6 +58,7 @@ void write_rig_trajectory(const fs::path& dir, const RigTrajectory& trajectory, 
   j["world_from_axis"] = pose_to_json(trajectory.world_from_axis);
   j["ref_from_cam"] = nlohmann::json::array();
   for (const Rigid3d& pose : trajectory.ref_from_cam) j["ref_from_cam"].push_back(pose_to_json(pose));
+  j["written_by"] = {{"version", project_version()}, {"source_revision", source_revision()}};
   write_file_atomic(dir / "rig_estimate.json", j.dump(2) + "\n");
 }
 

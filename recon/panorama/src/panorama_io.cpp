@@ -10,6 +10,7 @@
 
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/pose_json.h"
+#include "panoscan/core/version.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/json_file.h"
 #include "panoscan/core/image_io.h"
@@ -159,6 +160,7 @@ void write_panorama(const fs::path& dir, const Panorama& panorama, bool overwrit
                       {"lambda_smoothness", e.smoothness_weighted},
                       {"data_epsilon_m", e.data_epsilon_m}});
   j["energy"] = energy;
+  j["written_by"] = {{"version", project_version()}, {"source_revision", source_revision()}};
   write_file_atomic(tmp / "panorama.json", j.dump(1) + "\n");
   out.commit();
 }

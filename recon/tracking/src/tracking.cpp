@@ -15,6 +15,7 @@
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
 #include "panoscan/core/timer.h"
+#include "panoscan/core/version.h"
 #include "tracking_graph.h"
 
 namespace panoscan {
@@ -390,7 +391,8 @@ std::string tracking_stats_json(const TrackingResult& result, const RigInfo& rig
   return j.dump(2) + "\n";
 }
 
-void write_tracking_result(const std::filesystem::path& dir, const TrackingResult& result, const RigInfo& rig) {
+void write_tracking_result(const std::filesystem::path& dir, const TrackingResult& result, const RigInfo& rig,
+                           const std::filesystem::path& scan_dir) {
   std::filesystem::create_directories(dir);
   if (result.verdict.reliable) {
     write_rig_trajectory(dir, result.trajectory, rig);
@@ -399,7 +401,10 @@ void write_tracking_result(const std::filesystem::path& dir, const TrackingResul
     marked.source += ":unreliable";
     write_rig_trajectory(dir, marked, rig);
   }
-  write_file_atomic(dir / "tracking_stats.json", tracking_stats_json(result, rig));
+  nlohmann::json stats = nlohmann::json::parse(tracking_stats_json(result, rig));
+  stats["written_by"] = {{"version", project_version()}, {"source_revision", source_revision()}};
+  if (!scan_dir.empty()) stats["scan"] = std::filesystem::absolute(scan_dir).lexically_normal().string();
+  write_file_atomic(dir / "tracking_stats.json", stats.dump(2) + "\n");
 }
 
 }  // namespace panoscan

@@ -6,7 +6,8 @@
 // scan's listing) and rig_estimate.json:
 //   {"format": "panoscan-rig-trajectory", "version": 1,
 //    "world_from_axis": {"translation": [...], "rotation_quaternion_xyzw": [...]},
-//    "ref_from_cam": [pose, ...], "source": "..."}
+//    "ref_from_cam": [pose, ...], "source": "...",
+//    "written_by": {"version": ..., "source_revision": ...}}   (written, not required)
 #pragma once
 
 #include <filesystem>

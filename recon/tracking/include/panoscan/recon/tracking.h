@@ -238,10 +238,12 @@ TrackingOptions tracking_options_from_config(Config& config);
 const char* to_string(TrackingMode mode);
 TrackingMode tracking_mode_from_string(const std::string& text, const std::string& origin);
 
-// Writes the rig trajectory (write_rig_trajectory) plus tracking_stats.json (with the verdict and
-// the per-frame support), atomically. An unreliable result is written with its trajectory's
-// source marked ":unreliable".
-void write_tracking_result(const std::filesystem::path& dir, const TrackingResult& result, const RigInfo& rig);
+// Writes the rig trajectory (write_rig_trajectory) plus tracking_stats.json (with the verdict, the
+// per-frame support and "written_by": version and source revision), atomically. An unreliable
+// result is written with its trajectory's source marked ":unreliable". `scan_dir`, when given, is
+// recorded as "scan" (absolute), so that a reader (the HTML report) can find the ground truth.
+void write_tracking_result(const std::filesystem::path& dir, const TrackingResult& result, const RigInfo& rig,
+                           const std::filesystem::path& scan_dir = {});
 std::string tracking_stats_json(const TrackingStats& stats);
 // The stats plus "verdict" (every check) and "frame_support" (per camera: observations, gap_deg, confidence).
 std::string tracking_stats_json(const TrackingResult& result, const RigInfo& rig);
