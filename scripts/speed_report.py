@@ -100,16 +100,20 @@ def ratios(results):
                             "speed-up on the same clouds; issue aim >= 10"))
     lines.append(ratio_line("Open3D GICP time / GICP (Ours) time", first_seconds(reg, "BM_RegisterOpen3dGicp"), ours,
                             "speed-up on the same clouds"))
-    # BM_RegisterGrowth/<H>/<0 ours | 1 Open3D>: the same ratio at each panorama size.
+    # BM_RegisterGrowth/<H>/<variant>: 0 ours on prepared clouds, 1 Open3D, 2 PCL (both estimate their
+    # covariances inside the call), 3 ours including prepare_surface() of both clouds (like for like).
     growth_runs = {}
     for b in find(reg, "BM_RegisterGrowth/"):
         parts = b["name"].split("/")
         growth_runs.setdefault(parts[1], {})[parts[2]] = b
-    for height, pair in sorted(growth_runs.items(), key=lambda item: int(item[0])):
-        if "0" in pair and "1" in pair:
-            points = pair["0"].get("points", 0)
-            lines.append(ratio_line(f"Open3D GICP time / GICP (Ours) time, H = {height}", seconds(pair["1"]),
-                                    seconds(pair["0"]), f"{points / 1000:.0f}k points"))
+    for height, runs in sorted(growth_runs.items(), key=lambda item: int(item[0])):
+        points = next(iter(runs.values())).get("points", 0)
+        for ref, ref_name, aim in (("2", "PCL", 10), ("1", "Open3D", 2)):
+            for ours_key, ours_name in (("0", "GICP (Ours)"), ("3", "GICP (Ours) + surfaces")):
+                lines.append(ratio_line(f"{ref_name} GICP time / {ours_name} time, H = {height}",
+                                        seconds(runs[ref]) if ref in runs else None,
+                                        seconds(runs[ours_key]) if ours_key in runs else None,
+                                        f"{points / 1000:.0f}k points; issue aim >= {aim}"))
     pano = results.get("panorama_benchmark", [])
     # The panorama is the paper's method, TSA-L1 (label "tsa"), not the first fusion benchmark (averaging).
     tsa = [b for b in find(pano, "BM_PanoramaFuse/") if b.get("label") == "tsa"]

@@ -182,6 +182,38 @@ TEST(Registration, SameResultWithOneAndTwoThreads) {
   EXPECT_EQ(one.iterations, two.iterations);
 }
 
+TEST(Registration, CoarseToFineReachesTheMinimumOfTheFullCloud) {
+  // The coarse levels only move the pose near the minimum; the finest level, on every point,
+  // decides where it ends: the same pose as Gauss-Newton on all points from the start, to far
+  // below the noise floor, in fewer full-cloud iterations.
+  const Scene scene = furnished_room();
+  const Renderer renderer(scene);
+  const Rigid3d world_from_target = make_rigid(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.2, -0.3, 1.2));
+  const Rigid3d world_from_source =
+      make_rigid(so3_exp(Eigen::Vector3d(0.01, -0.015, 0.8)), Eigen::Vector3d(1.0, 0.4, 1.15));
+  const Panorama target = make_panorama(renderer, world_from_target, 0.003, 0.003, 1);
+  const Panorama source = make_panorama(renderer, world_from_source, 0.003, 0.003, 2);
+  const Rigid3d truth = world_from_target.inverse() * world_from_source;
+  const Rigid3d initial =
+      make_rigid(so3_exp(Eigen::Vector3d(0.02, -0.03, 0.05)), Eigen::Vector3d(0.06, -0.05, 0.03)) * truth;
+  for (IcpMethod method : {IcpMethod::kGicp, IcpMethod::kGicpMeasured, IcpMethod::kPointToPlane}) {
+    IcpOptions options;
+    options.method = method;
+    options.coarse_min_points = 500;  // the test panoramas are small: make both coarse levels run
+    options.coarse_levels = 0;
+    const IcpResult flat = register_icp(source.cloud, target.cloud, initial, options);
+    options.coarse_levels = 2;
+    const IcpResult pyramid = register_icp(source.cloud, target.cloud, initial, options);
+    ASSERT_TRUE(flat.converged && pyramid.converged) << to_string(method);
+    const Rigid3d difference = flat.target_from_source.inverse() * pyramid.target_from_source;
+    EXPECT_LT(difference.translation().norm(), 2e-5) << to_string(method);
+    EXPECT_LT(so3_log(difference.linear()).norm(), 2e-5) << to_string(method);
+    // Fewer iterations on the full cloud (the cost history holds the finest level's only).
+    EXPECT_LT(pyramid.cost_history.size(), flat.cost_history.size()) << to_string(method);
+    EXPECT_GT(pyramid.iterations, int(pyramid.cost_history.size())) << to_string(method);
+  }
+}
+
 TEST(Registration, BadInputIsAClearError) {
   RegistrationCloud empty;
   RegistrationCloud points;

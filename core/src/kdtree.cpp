@@ -48,9 +48,17 @@ std::size_t PointKdTree::knn(const Eigen::Vector3d& query, std::size_t k, std::u
 }
 
 long PointKdTree::nearest_within(const Eigen::Vector3d& query, double max_distance, double* squared_distance) const {
+  if (!impl_->tree) return -1;
+  // A one-point result set whose worst distance starts at the radius: the search prunes every
+  // subtree farther than max_distance instead of first finding some nearest point far away.
   std::uint32_t index = 0;
   double d2 = 0.0;
-  if (knn(query, 1, &index, &d2) == 0 || d2 > max_distance * max_distance) return -1;
+  nanoflann::KNNResultSet<double, std::uint32_t> result(1);
+  result.init(&index, &d2);
+  d2 = max_distance * max_distance;
+  const double coords[3] = {query.x(), query.y(), query.z()};
+  impl_->tree->findNeighbors(result, coords, nanoflann::SearchParams());
+  if (result.size() == 0) return -1;
   if (squared_distance) *squared_distance = d2;
   return static_cast<long>(index);
 }

@@ -249,6 +249,7 @@ PairRegistrationOptions pair_registration_options_from_config(Config& config) {
   icp.max_correspondence_m =
       config.get_double("registration.max_correspondence_m", icp.max_correspondence_m, 1e-3, 10.0);
   icp.max_iterations = config.get_int("registration.max_iterations", icp.max_iterations, 1, 1000);
+  icp.coarse_levels = config.get_int("registration.coarse_levels", icp.coarse_levels, 0, 8);
   options.min_fitness = config.get_double("registration.min_fitness", options.min_fitness, 0.0, 1.0);
   options.ambiguity_margin = config.get_double("registration.ambiguity_margin", options.ambiguity_margin, 0.0, 1.0);
   icp.threads = config.get_int("threads", 0, 0, 1024);

@@ -1,9 +1,12 @@
 // The ICP family of Table 4 as one Gauss-Newton loop; methods differ in the per-correspondence
 // metric M_i and in the choice of correspondence (see registration.h).
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Cholesky>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -41,6 +44,11 @@ void IcpOptions::check() const {
   if (!(curvature_scale > 0)) throw make_error("", "registration.curvature_scale", "must be positive");
   if (!(fitness_distance_m > 0)) throw make_error("", "registration.fitness_distance_m", "must be positive");
   if (!(min_fitness >= 0 && min_fitness <= 1)) throw make_error("", "registration.min_fitness", "must be in [0, 1]");
+  if (coarse_levels < 0) throw make_error("", "registration.coarse_levels", "must be at least 0");
+  if (coarse_stride < 2) throw make_error("", "registration.coarse_stride", "must be at least 2");
+  if (coarse_min_points < 6) throw make_error("", "registration.coarse_min_points", "must be at least 6");
+  if (!(convergence_relative_cost >= 0)) throw make_error("", "registration.convergence_relative_cost", "must be >= 0");
+  if (!(coarse_tolerance_scale >= 1)) throw make_error("", "registration.coarse_tolerance_scale", "must be at least 1");
 }
 
 namespace {
@@ -84,10 +92,31 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
   return m;
 }
 
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Combined covariance of each point for the GICP family (Eq. 8/9): the surface part plus, for the
+// noise-model methods, the measurement part. Summed once per registration instead of once per
+// correspondence and iteration (half the memory traffic of the inner loop).
+std::vector<Eigen::Matrix3d> combined_covariances(const RegistrationCloud& cloud, IcpMethod method) {
+  if (!uses_surface_covariance(method)) return {};
+  std::vector<Eigen::Matrix3d> combined = cloud.surface_covariances;
+  if (uses_measurement_covariance(method))
+    for (std::size_t i = 0; i < combined.size(); ++i) combined[i] += cloud.measurement_covariances[i];
+  return combined;
+}
+
 class Problem {
  public:
   Problem(const RegistrationCloud& source, const RegistrationCloud& target, const IcpOptions& options)
-      : source_(source), target_(target), options_(options), tree_(target.points) {
+      : source_(source),
+        target_(target),
+        options_(options),
+        tree_(target.points),
+        source_covariances_(combined_covariances(source, options.method)),
+        target_covariances_(combined_covariances(target, options.method)),
+        correspondences_(source.points.size(), -1) {
     if (options.method == IcpMethod::kPointToPlaneCurvature && !target.confidence.empty()) {
       // Confidence relative to the median count, saturating: a pixel seen twice as often as
       // the typical one is not twice as trustworthy.
@@ -113,51 +142,55 @@ class Problem {
         // A tiny isotropic part keeps the system regular on degenerate (single-plane) overlaps.
         return weight * (n * n.transpose() + 1e-6 * Eigen::Matrix3d::Identity());
       }
-      default: {
+      default:
         // Eq. 8/9: combined covariance R C_s R^T + C_t, inverted.
-        Eigen::Matrix3d source_cov = source_.surface_covariances[i];
-        Eigen::Matrix3d target_cov = target_.surface_covariances[j];
-        if (uses_measurement_covariance(options_.method)) {
-          source_cov += source_.measurement_covariances[i];
-          target_cov += target_.measurement_covariances[j];
+        return (rotation * source_covariances_[i] * rotation.transpose() + target_covariances_[j]).inverse();
+    }
+  }
+
+  // Finds the correspondence of every source point in `active` placed by target_from_source.
+  // The nearest target point is searched within lambda_a and, when the point had a correspondence
+  // before, within its distance to that one (plus a hair): the previous match bounds the nearest,
+  // so the search is exact but prunes most of the tree once the pose settles.
+  void correspond(const Rigid3d& target_from_source, const std::vector<std::uint32_t>& active) {
+    const Eigen::Matrix3d rotation = target_from_source.linear();
+    const double max_d = options_.max_correspondence_m;
+    const std::size_t n = active.size();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kBlock), [&](const tbb::blocked_range<std::size_t>& r) {
+      std::uint32_t candidates[32];
+      double squared[32];
+      for (std::size_t a = r.begin(); a != r.end(); ++a) {
+        const std::uint32_t i = active[a];
+        const Eigen::Vector3d q = target_from_source * source_.points[i];
+        if (options_.method != IcpMethod::kAnisotropic) {
+          double bound = max_d;
+          if (correspondences_[i] >= 0)
+            bound = std::min(bound, (target_.points[std::size_t(correspondences_[i])] - q).norm() * (1 + 1e-9) + 1e-12);
+          correspondences_[i] = tree_.nearest_within(q, bound);
+          continue;
         }
-        return (rotation * source_cov * rotation.transpose() + target_cov).inverse();
+        // Anisotropic ICP: the Mahalanobis-nearest among the Euclidean candidates.
+        const std::size_t k = std::min<std::size_t>(options_.anisotropic_candidates, 32);
+        const std::size_t found = tree_.knn(q, k, candidates, squared);
+        long best = -1;
+        double best_cost = 0;
+        for (std::size_t c = 0; c < found; ++c) {
+          if (squared[c] > max_d * max_d) break;
+          const Eigen::Vector3d d = target_.points[candidates[c]] - q;
+          const double cost = d.dot(metric(i, candidates[c], rotation) * d);
+          if (best < 0 || cost < best_cost) {
+            best = candidates[c];
+            best_cost = cost;
+          }
+        }
+        correspondences_[i] = best;
       }
-    }
+    });
   }
 
-  // Correspondence of source point i placed at q; -1 if none within the distance.
-  long correspond(std::size_t i, const Eigen::Vector3d& q, const Eigen::Matrix3d& rotation, Eigen::Matrix3d* m) const {
-    const double max_d2 = options_.max_correspondence_m * options_.max_correspondence_m;
-    if (options_.method != IcpMethod::kAnisotropic) {
-      double d2 = 0;
-      const long j = tree_.nearest_within(q, options_.max_correspondence_m, &d2);
-      if (j >= 0) *m = metric(i, std::size_t(j), rotation);
-      return j;
-    }
-    // Anisotropic ICP: the Mahalanobis-nearest among the Euclidean candidates.
-    std::uint32_t indices[32];
-    double squared[32];
-    const std::size_t k = std::min<std::size_t>(options_.anisotropic_candidates, 32);
-    const std::size_t found = tree_.knn(q, k, indices, squared);
-    long best = -1;
-    double best_cost = 0;
-    for (std::size_t c = 0; c < found; ++c) {
-      if (squared[c] > max_d2) break;
-      const Eigen::Matrix3d candidate_metric = metric(i, indices[c], rotation);
-      const Eigen::Vector3d d = target_.points[indices[c]] - q;
-      const double cost = d.dot(candidate_metric * d);
-      if (best < 0 || cost < best_cost) {
-        best = indices[c];
-        best_cost = cost;
-        *m = candidate_metric;
-      }
-    }
-    return best;
-  }
-
-  Partial linearise(const Rigid3d& target_from_source) const {
-    const std::size_t n = source_.points.size();
+  // Gauss-Newton normal equations of the current correspondences of the `active` source points.
+  Partial linearise(const Rigid3d& target_from_source, const std::vector<std::uint32_t>& active) const {
+    const std::size_t n = active.size();
     const std::size_t blocks = (n + kBlock - 1) / kBlock;
     std::vector<Partial> partials(blocks);
     const Eigen::Matrix3d rotation = target_from_source.linear();
@@ -165,12 +198,13 @@ class Problem {
     tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
       Partial& partial = partials[b];
       const std::size_t end = std::min(n, (b + 1) * kBlock);
-      for (std::size_t i = b * kBlock; i < end; ++i) {
-        const Eigen::Vector3d q = target_from_source * source_.points[i];
-        Eigen::Matrix3d m;
-        const long j = correspond(i, q, rotation, &m);
+      for (std::size_t a = b * kBlock; a < end; ++a) {
+        const std::uint32_t i = active[a];
+        const long j = correspondences_[i];
         if (j < 0) continue;
-        const Eigen::Vector3d d = target_.points[j] - q;
+        const Eigen::Vector3d q = target_from_source * source_.points[i];
+        const Eigen::Matrix3d m = metric(i, std::size_t(j), rotation);
+        const Eigen::Vector3d d = target_.points[std::size_t(j)] - q;
         // d(xi) = b - exp(xi) q ~ d + [ [q]x  -I ] xi  (left perturbation, xi = (omega, v)).
         Eigen::Matrix<double, 3, 6> jacobian;
         jacobian.leftCols<3>() = skew(q);
@@ -201,8 +235,29 @@ class Problem {
   const RegistrationCloud& target_;
   const IcpOptions& options_;
   PointKdTree tree_;
+  std::vector<Eigen::Matrix3d> source_covariances_, target_covariances_;
+  std::vector<long> correspondences_;  // per source point; -1 = none
   float median_confidence_ = 1.f;
 };
+
+// The source points of each coarse-to-fine level: every stride-th point (a deterministic, uniform
+// subsample of a panorama's pixel order), the last level all of them.
+std::vector<std::vector<std::uint32_t>> level_subsets(std::size_t n, const IcpOptions& options) {
+  std::vector<std::vector<std::uint32_t>> levels;
+  for (int level = options.coarse_levels; level >= 1; --level) {
+    std::size_t stride = 1;
+    for (int k = 0; k < level; ++k) stride *= std::size_t(options.coarse_stride);
+    if (n / stride < std::size_t(options.coarse_min_points)) continue;
+    std::vector<std::uint32_t> subset;
+    subset.reserve(n / stride + 1);
+    for (std::size_t i = 0; i < n; i += stride) subset.push_back(std::uint32_t(i));
+    levels.push_back(std::move(subset));
+  }
+  std::vector<std::uint32_t> all(n);
+  for (std::size_t i = 0; i < n; ++i) all[i] = std::uint32_t(i);
+  levels.push_back(std::move(all));
+  return levels;
+}
 
 }  // namespace
 
@@ -211,30 +266,63 @@ IcpResult register_icp(const RegistrationCloud& source, const RegistrationCloud&
   options.check();
   check_cloud(source, "source", options.method);
   check_cloud(target, "target", options.method);
+  if (source.points.size() > std::numeric_limits<std::uint32_t>::max())
+    throw make_error("", "source cloud", "has more than 2^32 points");
   IcpResult result;
   result.target_from_source = initial_target_from_source;
   tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
   arena.execute([&] {
-    const Problem problem(source, target, options);
-    for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
-      const Partial system = problem.linearise(result.target_from_source);
-      result.iterations = iteration + 1;
-      result.cost_history.push_back(system.cost);
-      if (system.count < 6)
-        throw make_error(
-            "", "registration",
-            "fewer than 6 correspondences: no overlap within " + std::to_string(options.max_correspondence_m) + " m");
-      const Eigen::Matrix<double, 6, 1> step = -system.hessian.ldlt().solve(system.gradient);
-      if (!step.allFinite()) throw make_error("", "registration", "degenerate system (the overlap constrains no pose)");
-      const Rigid3d increment = make_rigid(so3_exp(step.head<3>()), step.tail<3>());
-      result.target_from_source = increment * result.target_from_source;
-      if (step.head<3>().norm() < options.convergence_rotation_rad &&
-          step.tail<3>().norm() < options.convergence_translation_m) {
-        result.converged = true;
-        break;
+    auto clock = std::chrono::steady_clock::now();
+    Problem problem(source, target, options);
+    const std::vector<std::vector<std::uint32_t>> levels = level_subsets(source.points.size(), options);
+    result.timings.setup_s += seconds_since(clock);
+    for (std::size_t level = 0; level < levels.size(); ++level) {
+      const bool finest = level + 1 == levels.size();
+      // Coarse levels only bring the pose near the minimum; the finest level decides convergence.
+      const double loosen = finest ? 1.0 : options.coarse_tolerance_scale;
+      double cost_before = std::numeric_limits<double>::infinity(), cost_two_before = cost_before;
+      for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
+        clock = std::chrono::steady_clock::now();
+        problem.correspond(result.target_from_source, levels[level]);
+        result.timings.correspondence_s += seconds_since(clock);
+        clock = std::chrono::steady_clock::now();
+        const Partial system = problem.linearise(result.target_from_source, levels[level]);
+        result.timings.linearise_s += seconds_since(clock);
+        ++result.iterations;
+        if (finest) result.cost_history.push_back(system.cost);
+        if (system.count < 6)
+          throw make_error(
+              "", "registration",
+              "fewer than 6 correspondences: no overlap within " + std::to_string(options.max_correspondence_m) + " m");
+        clock = std::chrono::steady_clock::now();
+        const Eigen::Matrix<double, 6, 1> step = -system.hessian.ldlt().solve(system.gradient);
+        if (!step.allFinite()) throw make_error("", "registration", "degenerate system (the overlap constrains no pose)");
+        const Rigid3d increment = make_rigid(so3_exp(step.head<3>()), step.tail<3>());
+        result.target_from_source = increment * result.target_from_source;
+        result.timings.solve_s += seconds_since(clock);
+        const bool small_step = step.head<3>().norm() < loosen * options.convergence_rotation_rad &&
+                                step.tail<3>().norm() < loosen * options.convergence_translation_m;
+        // A nearly small step while the objective repeats the value of two steps before: the pose
+        // sways between two correspondence sets (seen on coarse panoramas: 2.5e-7 rad back and
+        // forth, the objective alternating) and further steps cannot improve it.
+        const bool settled =
+            std::abs(system.cost - cost_two_before) <= options.convergence_relative_cost * system.cost &&
+            step.head<3>().norm() < options.coarse_tolerance_scale * loosen * options.convergence_rotation_rad &&
+            step.tail<3>().norm() < options.coarse_tolerance_scale * loosen * options.convergence_translation_m;
+        cost_two_before = cost_before;
+        cost_before = system.cost;
+        if (small_step || settled) {
+          result.converged = finest;
+          break;
+        }
       }
     }
-    const Partial final_state = problem.linearise(result.target_from_source);
+    clock = std::chrono::steady_clock::now();
+    problem.correspond(result.target_from_source, levels.back());
+    result.timings.correspondence_s += seconds_since(clock);
+    clock = std::chrono::steady_clock::now();
+    const Partial final_state = problem.linearise(result.target_from_source, levels.back());
+    result.timings.linearise_s += seconds_since(clock);
     result.correspondences = final_state.count;
     result.inlier_fraction = double(final_state.count) / double(source.points.size());
     result.fitness = double(final_state.close) / double(source.points.size());

@@ -38,16 +38,22 @@ void prepare_surface(RegistrationCloud& cloud, const Eigen::Vector3d& viewpoint,
           cloud.normals[i] = towards_viewpoint;
           continue;
         }
-        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-        for (std::size_t j = 0; j < found; ++j) mean += cloud.points[indices[j]];
-        mean /= double(found);
-        Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+        // One pass over the neighbours, relative to p (offsets of centimetres: no cancellation).
+        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+        Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
         for (std::size_t j = 0; j < found; ++j) {
-          const Eigen::Vector3d d = cloud.points[indices[j]] - mean;
-          covariance += d * d.transpose();
+          const Eigen::Vector3d d = cloud.points[indices[j]] - p;
+          sum += d;
+          outer += d * d.transpose();
         }
-        covariance /= double(found);
-        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(covariance);
+        const Eigen::Vector3d mean = sum / double(found);
+        const Eigen::Matrix3d covariance = outer / double(found) - mean * mean.transpose();
+        // The closed-form 3x3 solver (Eigen's computeDirect, several times faster than the
+        // iterative one): the normal is the eigenvector of the clearly smallest eigenvalue, which
+        // it resolves well; where the two in-plane eigenvalues are close their vectors are
+        // arbitrary, but the plane-shaped covariance below does not depend on them.
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+        eigen.computeDirect(covariance);
         const Eigen::Vector3d values = eigen.eigenvalues().cwiseMax(0.0);  // ascending
         const Eigen::Matrix3d vectors = eigen.eigenvectors();
         Eigen::Vector3d normal = vectors.col(0);

@@ -86,6 +86,10 @@ struct IcpOptions {
   int max_iterations = 50;             // paper §6.3
   double convergence_translation_m = 1e-6;
   double convergence_rotation_rad = 1e-7;
+  // Also converged: the objective came back to its value of two steps before (within this
+  // fraction) while the step was within coarse_tolerance_scale of the thresholds above (a pose
+  // swaying between two correspondence sets).
+  double convergence_relative_cost = 1e-9;
   int anisotropic_candidates = 8;  // Euclidean candidates for the Mahalanobis choice
   double curvature_scale = 0.05;   // "Curv": w = conf / (1 + (curvature / scale)^2)
   // Fitness: the fraction of source points whose correspondence lies within fitness_distance_m
@@ -94,20 +98,39 @@ struct IcpOptions {
   // failed (an Error), not returned as if it were fine; 0 disables the check.
   double fitness_distance_m = 0.03;
   double min_fitness = 0.0;
+  // Coarse to fine: Gauss-Newton first on every (stride^L)-th source point, ..., every stride-th,
+  // each level until its step is below coarse_tolerance_scale times the convergence thresholds,
+  // then on all points until converged. Levels with fewer than coarse_min_points points are
+  // skipped; 0 levels = all points from the start. The finest level alone decides convergence,
+  // so the result is the full cloud's minimum; the coarse levels only make the early iterations,
+  // when the pose is still far off, cheap.
+  int coarse_levels = 2;
+  int coarse_stride = 4;
+  int coarse_min_points = 2000;
+  double coarse_tolerance_scale = 100.0;
   int threads = 0;  // 0 = all cores
 
   void check() const;
 };
 
+// Wall-clock seconds of register_icp's phases (summed over iterations and levels).
+struct IcpTimings {
+  double setup_s = 0.0;           // the target's kd-tree, the combined covariances, the level subsets
+  double correspondence_s = 0.0;  // nearest-neighbour search
+  double linearise_s = 0.0;       // per-correspondence metric and the 6x6 normal equations
+  double solve_s = 0.0;           // the 6x6 solve and the pose update
+};
+
 struct IcpResult {
   Rigid3d target_from_source = Rigid3d::Identity();
-  int iterations = 0;
+  int iterations = 0;  // Gauss-Newton steps over all levels
   bool converged = false;
   std::size_t correspondences = 0;   // at the last iteration
   double inlier_fraction = 0.0;      // correspondences / source points
   double fitness = 0.0;              // source points within fitness_distance_m / source points
   double rmse_m = 0.0;               // Euclidean RMSE of the correspondences at the end
-  std::vector<double> cost_history;  // the objective per iteration (its own metric)
+  std::vector<double> cost_history;  // the objective per iteration of the finest level (its own metric)
+  IcpTimings timings;
 };
 
 // Registers `source` onto `target` from `initial_target_from_source`. Both clouds must have
