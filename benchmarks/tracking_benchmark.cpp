@@ -12,6 +12,8 @@
 #include <unistd.h>
 
 #include "panoscan/core/scan.h"
+#include "panoscan/eval/groundtruth.h"
+#include "panoscan/eval/trajectory_metrics.h"
 #include "panoscan/recon/tracking.h"
 #include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/simulator.h"
@@ -50,23 +52,43 @@ void BM_Frontend(benchmark::State& state) {
   const ScanIndex& scan = scan_for(int(state.range(0)), int(state.range(1)));
   std::size_t frames = 0;
   for (const auto& f : scan.frames) frames += f.size();
-  double ms = 0;
+  double ms = 0, feature_ms = 0, matching_ms = 0, landmarks = 0;
   for (auto _ : state) {
     const FrontendResult result = run_frontend(scan, benchmark_options().frontend);
     ms = 1e3 * result.total_seconds / double(frames);
-    benchmark::DoNotOptimize(result.landmarks.size());
+    feature_ms = result.feature_ms_per_frame;    // decoding the frame, ORB, the overlap crops
+    matching_ms = result.matching_ms_per_frame;  // pairs, RANSAC, cross-camera, landmarks
+    landmarks = double(result.landmarks.size());
   }
   state.counters["frames"] = double(frames);
   state.counters["ms_per_frame"] = ms;
+  state.counters["feature_ms_per_frame"] = feature_ms;
+  state.counters["matching_ms_per_frame"] = matching_ms;
+  state.counters["landmarks"] = landmarks;
 }
 
 void BM_Solve(benchmark::State& state) {
   const ScanIndex& scan = scan_for(int(state.range(0)), int(state.range(1)));
   const FrontendResult frontend = run_frontend(scan, benchmark_options().frontend);
   TrackingOptions options = benchmark_options();
-  if (state.range(2) == 1) options.linear_solver = "sparse_normal_cholesky";
-  TrackingStats stats;
-  for (auto _ : state) stats = track_with_frontend(scan, frontend, options).stats;
+  const char* solvers[] = {"sparse_schur", "sparse_normal_cholesky", "dense_schur", "iterative_schur"};
+  options.linear_solver = solvers[state.range(2)];
+  state.SetLabel(options.linear_solver);
+  TrackingResult result;
+  for (auto _ : state) result = track_with_frontend(scan, frontend, options);
+  const TrackingStats& stats = result.stats;
+  // The accuracy the speed is bought with: the mean over cameras of the ATE RMSE (mm).
+  const RigTrajectory truth = eval::groundtruth_rig_trajectory(scan.root);
+  eval::TrajectoryMetricsOptions metrics_options;
+  metrics_options.rpe_delta_s = 1.0;
+  double ate_mm = 0;
+  for (std::size_t s = 0; s < truth.world_from_cam.size(); ++s)
+    ate_mm += 1e3 *
+              eval::evaluate_trajectory(truth.world_from_cam[s], result.trajectory.world_from_cam[s], metrics_options,
+                                        "truth", "tracked")
+                  .ate_m.rmse /
+              double(truth.world_from_cam.size());
+  state.counters["ate_mm"] = ate_mm;
   state.counters["linear_solver_s"] = stats.linear_solver_seconds;
   state.counters["jacobian_s"] = stats.jacobian_seconds;
   state.counters["frames"] = stats.frames;
@@ -77,9 +99,12 @@ void BM_Solve(benchmark::State& state) {
 }
 
 BENCHMARK(BM_Frontend)->Args({640, 16})->Args({320, 16})->Unit(benchmark::kMillisecond)->Iterations(1);
-// Third argument: 0 = SPARSE_SCHUR (default), 1 = SPARSE_NORMAL_CHOLESKY.
+// Third argument: 0 = SPARSE_SCHUR (default), 1 = SPARSE_NORMAL_CHOLESKY, 2 = DENSE_SCHUR,
+// 3 = ITERATIVE_SCHUR (SCHUR_JACOBI; not run here: 31 s at 640/16 against 2.8 s, see
+// recon/tracking/README.md "Solver speed").
 BENCHMARK(BM_Solve)
     ->Args({640, 16, 0})
+    ->Args({640, 16, 2})
     ->Args({320, 32, 0})
     ->Args({320, 16, 0})
     ->Args({320, 16, 1})

@@ -36,8 +36,9 @@ void TrackingOptions::check(const std::string& origin) const {
   require(depth_noise_coefficient > 0, "track.depth_noise_coefficient", "must be > 0");
   require(max_iterations >= 1 && max_iterations <= 10000, "track.max_iterations", "must be in [1, 10000]");
   require(function_tolerance > 0 && function_tolerance < 1, "track.function_tolerance", "must be in (0, 1)");
-  require(linear_solver == "sparse_schur" || linear_solver == "sparse_normal_cholesky", "track.linear_solver",
-          "must be sparse_schur or sparse_normal_cholesky");
+  require(linear_solver == "sparse_schur" || linear_solver == "sparse_normal_cholesky" ||
+              linear_solver == "iterative_schur" || linear_solver == "dense_schur",
+          "track.linear_solver", "must be sparse_schur, dense_schur, iterative_schur or sparse_normal_cholesky");
   require(threads >= 0, "threads", "must be >= 0");
   frontend.check(origin);
   verify.check(origin);
@@ -111,7 +112,8 @@ TrackingOptions tracking_options_from_config(Config& config) {
   o.function_tolerance = config.get_double("track.function_tolerance", o.function_tolerance, 1e-15, 0.5);
   o.log_iterations = config.get_bool("track.log_iterations", o.log_iterations);
   o.linear_solver =
-      config.get_string("track.linear_solver", o.linear_solver, {"sparse_schur", "sparse_normal_cholesky"});
+      config.get_string("track.linear_solver", o.linear_solver,
+                        {"sparse_schur", "dense_schur", "iterative_schur", "sparse_normal_cholesky"});
   o.threads = config.get_int("threads", 0, 0, 1024);
   FrontendOptions& f = o.frontend;
   f.orb_features = config.get_int("frontend.orb_features", f.orb_features, 50, 20000);

@@ -367,8 +367,13 @@ void fix_gauge(FactorGraph& graph, TrackingState& st, const TrackingOptions& opt
 ceres::Solver::Summary solve_tracking_graph(FactorGraph& graph, const TrackingOptions& options,
                                             const std::string& origin, int* threads_used) {
   ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type =
-      options.linear_solver == "sparse_schur" ? ceres::SPARSE_SCHUR : ceres::SPARSE_NORMAL_CHOLESKY;
+  solver_options.linear_solver_type = options.linear_solver == "sparse_schur"      ? ceres::SPARSE_SCHUR
+                                      : options.linear_solver == "dense_schur"     ? ceres::DENSE_SCHUR
+                                      : options.linear_solver == "iterative_schur" ? ceres::ITERATIVE_SCHUR
+                                                                                   : ceres::SPARSE_NORMAL_CHOLESKY;
+  // Conjugate gradients on the reduced camera system, preconditioned by its diagonal blocks (no
+  // Schur complement formed: the cost of a step grows with the observations, not their square).
+  solver_options.preconditioner_type = ceres::SCHUR_JACOBI;
   solver_options.minimizer_type = ceres::TRUST_REGION;
   solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   solver_options.max_num_iterations = options.max_iterations;
@@ -376,9 +381,12 @@ ceres::Solver::Summary solve_tracking_graph(FactorGraph& graph, const TrackingOp
       options.threads > 0 ? options.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.logging_type = ceres::SILENT;
-  // No explicit ParameterBlockOrdering: Ceres orders the blocks of a user ordering by address, which
-  // varies between runs (measured: about 25% faster but not reproducible); its automatic ordering
-  // finds the landmarks as the eliminated set and is reproducible.
+  // No explicit ParameterBlockOrdering. Ceres orders the blocks within a group by address, so a
+  // reproducible user ordering needs a group per non-landmark block; measured at 640x480, n = 16
+  // (recon/tracking/README.md, "Solver speed"): that gives the Schur eliminator its <3,3,3>
+  // specialisation but costs a constrained AMD of the whole problem (about 0.2 s) and was not
+  // faster per iteration. The automatic ordering finds the landmarks as the eliminated set and is
+  // reproducible.
   IterationLogger iteration_logger(origin);
   if (options.log_iterations) solver_options.callbacks.push_back(&iteration_logger);
   ceres::Solver::Summary summary;

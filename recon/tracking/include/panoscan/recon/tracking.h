@@ -126,7 +126,8 @@ struct TrackingOptions {
   // (why 1e-5: recon/tracking/README.md, "Solver tolerance").
   double function_tolerance = 1e-5;
   bool log_iterations = false;                 // track.log_iterations: one log line per LM iteration (cost, times)
-  std::string linear_solver = "sparse_schur";  // track.linear_solver: sparse_schur | sparse_normal_cholesky
+  // track.linear_solver: sparse_schur | dense_schur | iterative_schur | sparse_normal_cholesky
+  std::string linear_solver = "sparse_schur";
   int threads = 0;                             // threads (0 = all cores)
   FrontendOptions frontend;                    // frontend.* keys
   TrackingVerifyOptions verify;                // track.verify.* keys
