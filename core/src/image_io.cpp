@@ -15,6 +15,7 @@
 
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/error.h"
+#include "png_decode.h"
 
 namespace fs = std::filesystem;
 
@@ -84,6 +85,13 @@ cv::Mat decode(const fs::path& path, int flags, bool png_only) {
   }
   if (mat.empty()) throw make_error(path.string(), "", "not a readable image (corrupt or unsupported format)");
   return mat;
+}
+
+// A regular file whose first bytes are PNG's signature (the fast decoder's precondition; anything
+// else takes decode()'s checks and messages).
+bool is_png(const fs::path& path) {
+  std::error_code ec;
+  return fs::is_regular_file(path, ec) && sniff_image_format(path) == "PNG";
 }
 
 }  // namespace
@@ -157,6 +165,21 @@ PngHeader read_png_header(const fs::path& path) {
 }
 
 ImageU8 read_rgb(const fs::path& path) {
+  DecodedPng png;
+  if (is_png(path) && decode_png_fast(path, &png) && png.bit_depth == 8) {
+    // Grey is replicated; RGBA drops alpha (as below).
+    ImageU8 image(png.width, png.height, 3);
+    const std::size_t pixels = std::size_t(png.width) * png.height;
+    const unsigned char* src = png.pixels.data();
+    std::uint8_t* dst = image.data.data();
+    if (png.channels == 3) {
+      std::memcpy(dst, src, pixels * 3);
+    } else {
+      for (std::size_t i = 0; i < pixels; ++i, src += png.channels, dst += 3)
+        dst[0] = src[0], dst[1] = src[png.channels == 1 ? 0 : 1], dst[2] = src[png.channels == 1 ? 0 : 2];
+    }
+    return image;
+  }
   cv::Mat mat = decode(path, cv::IMREAD_UNCHANGED, false);
   if (mat.depth() != CV_8U) throw make_error(path.string(), "bit depth", "expected an 8-bit colour image");
   const int channels = mat.channels();
@@ -178,6 +201,13 @@ ImageU8 read_rgb(const fs::path& path) {
 }
 
 ImageU16 read_png16(const fs::path& path) {
+  DecodedPng png;
+  if (is_png(path) && decode_png_fast(path, &png) && png.bit_depth == 16 && png.channels == 1) {
+    ImageU16 image(png.width, png.height, 1);
+    const unsigned char* src = png.pixels.data();
+    for (std::size_t i = 0; i < image.data.size(); ++i) image.data[i] = std::uint16_t((src[2 * i] << 8) | src[2 * i + 1]);
+    return image;
+  }
   cv::Mat mat = decode(path, cv::IMREAD_UNCHANGED, true);
   if (mat.depth() != CV_16U || mat.channels() != 1)
     throw make_error(path.string(), "format",
