@@ -123,8 +123,8 @@ struct TrackingOptions {
   double depth_noise_coefficient = 9.49e-4;  // track.depth_noise_coefficient: sigma_d = c d^2, ARCHITECTURE.md §4.1
   int max_iterations = 100;                  // track.max_iterations
   // track.function_tolerance: stop when an iteration lowers the cost by less than this fraction
-  // (why 1e-5: recon/tracking/README.md, "Solver tolerance").
-  double function_tolerance = 1e-5;
+  // (why 1e-4: recon/tracking/README.md, "Solver tolerance").
+  double function_tolerance = 1e-4;
   bool log_iterations = false;                 // track.log_iterations: one log line per LM iteration (cost, times)
   // track.linear_solver: sparse_schur | dense_schur | iterative_schur | sparse_normal_cholesky
   std::string linear_solver = "sparse_schur";
