@@ -339,6 +339,16 @@ void run_recon_scene(const ReconSceneArguments& a) {
   for (const SceneScan& s : scans) names.push_back(s.name);
   write_file_atomic(output.temp_path() / "placement.json",
                     placement_to_json(names, result.registrations, result.placement).dump(2) + "\n");
+  // Where the time went (scripts/whole_office.py reads it): wall-clock seconds per stage.
+  const nlohmann::json timings = {
+      {"tracking_s", result.seconds_tracking},
+      {"panorama_s", result.seconds_panorama},
+      {"registration_s", result.seconds_registration - result.seconds_pose_graph},
+      {"pose_graph_s", result.seconds_pose_graph},
+      {"integration_s", result.seconds_integration},
+      {"scans", scans.size()},
+      {"written_by", {{"version", project_version()}, {"source_revision", source_revision()}}}};
+  write_file_atomic(output.temp_path() / "timings.json", timings.dump(2) + "\n");
   output.commit();
   std::cout << fmt::format(
       "scene of {} scans: {} registrations ({} skipped{}), {} points ({} merged groups); "

@@ -37,7 +37,9 @@ void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std:
   // Poses: the one placement rule of recon scene and recon integrate (placement.h).
   std::vector<PoseGraphEdge> graph_edges;
   for (const PairEdge& e : result.edges) graph_edges.push_back({e.source, e.target, e.registration.target_from_source});
+  const auto placement_start = steady_now();
   result.placement = place_panoramas(names, panoramas[0].world_from_pano, graph_edges, options.placement);
+  result.seconds_pose_graph = seconds_since(placement_start);
   const Placement& placement = result.placement;
   result.registrations = graph_edges;
   std::vector<PairEdge> kept;

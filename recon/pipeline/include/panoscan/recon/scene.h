@@ -55,7 +55,9 @@ struct SceneResult {
   // The worst pairwise inconsistency (pose_graph.h) of the chained poses and of the final ones.
   EdgeDiscrepancy inconsistency_chained, inconsistency_final;
   IntegrationResult integration;
+  // Wall-clock seconds per stage; seconds_registration includes the pose graph's seconds_pose_graph.
   double seconds_tracking = 0, seconds_panorama = 0, seconds_registration = 0, seconds_integration = 0;
+  double seconds_pose_graph = 0;
 };
 
 // Stage 2's poses for built panoramas: pairwise registrations (consecutive ones must succeed, the
