@@ -152,6 +152,35 @@ def growth(results):
     return lines
 
 
+def aims(results):
+    """Issue 20's absolute aims that are not ratios: each figure beside its aim, "not measured" when
+    its benchmark did not run. The paper's figures come from a 6-core machine."""
+    lines = ["| figure | value | aim |", "|---|---:|---|"]
+
+    def counter_of(program, name, counter):
+        for b in find(results.get(program, []), name):
+            if counter in b:
+                return b[counter]
+        return None
+
+    def row(label, value, fmt, aim):
+        lines.append(f"| {label} | {fmt.format(value) if value is not None else 'not measured'} | {aim} |")
+
+    row("tracking solve per panorama, 640x480, n = 16 (s)",
+        counter_of("tracking_benchmark", "BM_Solve/640/16/0/", "solve_s"), "{:.2f}", "<= 1.5 (paper: 3.02 on 6 cores)")
+    row("its mean per-camera ATE (mm)", counter_of("tracking_benchmark", "BM_Solve/640/16/0/", "ate_mm"), "{:.2f}",
+        "unchanged")
+    row("front end per frame, 640x480 (ms)", counter_of("tracking_benchmark", "BM_Frontend/640/16", "ms_per_frame"),
+        "{:.1f}", "<= 4.3 (paper, 6 cores)")
+    warp = counter_of("panorama_benchmark", "BM_PanoramaSize/1024/", "warp_s")
+    fuse = counter_of("panorama_benchmark", "BM_PanoramaSize/1024/", "fuse_s")
+    row("panorama warping + TSA-L1 at H = 1024 (s)", None if warp is None or fuse is None else warp + fuse, "{:.1f}",
+        "<= 5")
+    row("its peak memory (MiB)", counter_of("panorama_benchmark", "BM_PanoramaSize/1024/", "peak_rss_MiB"), "{:.0f}",
+        "<= 1024")
+    return lines
+
+
 def built_from(build):
     """The version and source revision the benchmarks were built from (`panoscan --version`)."""
     try:
@@ -186,6 +215,7 @@ def main():
           f"Built from: {built_from(args.build)}. "
           f"Command: `/usr/bin/python3 scripts/speed_report.py {' '.join(sys.argv[1:])}`.", "",
           "## Ratios against references measured in the same run", ""] + ratios(results)
+    md += ["", "## Absolute figures against their aims", ""] + aims(results)
     md += ["", "## Growth with the input"] + growth(results)
     md += ["", "## Every benchmark", "", "| program | benchmark | real time (s) |", "|---|---|---:|"]
     for program, benchmarks in results.items():
