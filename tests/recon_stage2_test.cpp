@@ -79,6 +79,13 @@ TEST(Stage2, RegistersTwoOfficePanoramasAndRejectsAWrongGivenPose) {
               result.icp.iterations);
   EXPECT_LT(rotation_error, 0.1);
   EXPECT_LT(translation_error, 0.005);
+  // recon scene prepares each panorama once for all its pairs: the same registration.
+  const PreparedPanorama prepared_source = prepare_panorama_for_registration(source, options, "SO-3");
+  const PreparedPanorama prepared_target = prepare_panorama_for_registration(target, options, "SO-1");
+  const PairRegistration again = register_panorama_pair(prepared_source, prepared_target, options, nullptr);
+  EXPECT_EQ(again.target_from_source.matrix(), result.target_from_source.matrix());
+  EXPECT_EQ(again.guess.inliers, result.guess.inliers);
+  EXPECT_EQ(again.consistent_matches, result.consistent_matches);
 
   // A given initial pose that is 90 degrees wrong fails loudly.
   const Rigid3d wrong =

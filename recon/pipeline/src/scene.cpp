@@ -16,6 +16,9 @@ void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std:
   // Stage 2: registrations. The edge (source k -> target j) measures j_from_k between the
   // panorama frames.
   auto start = steady_now();
+  // Each panorama's cloud (with surfaces) and ORB features once, not once per pair it is in.
+  std::vector<PreparedPanorama> prepared;
+  for (int k = 0; k < n; ++k) prepared.push_back(prepare_panorama_for_registration(panoramas[k], options.registration, names[k]));
   for (int target = 0; target < n; ++target)
     for (int source = target + 1; source < n; ++source) {
       const bool consecutive = source == target + 1;
@@ -24,8 +27,7 @@ void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std:
       try {
         log_info(fmt::format("registering {}", pair));
         PairEdge edge{source, target,
-                      register_panorama_pair(panoramas[source], panoramas[target], options.registration, nullptr,
-                                             names[source], names[target])};
+                      register_panorama_pair(prepared[source], prepared[target], options.registration, nullptr)};
         result.edges.push_back(std::move(edge));
       } catch (const Error& e) {
         if (consecutive) throw;

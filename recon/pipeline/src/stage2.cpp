@@ -93,39 +93,63 @@ RegistrationCloud panorama_registration_cloud(const Panorama& panorama, const Pa
   return cloud;
 }
 
+namespace {
+
+ImageU8 colour_u8(const ImageF32& colour) {
+  ImageU8 out(colour.width, colour.height, 3);
+  for (std::size_t i = 0; i < colour.data.size(); ++i)
+    out.data[i] = static_cast<std::uint8_t>(std::clamp(colour.data[i] * 255.f + 0.5f, 0.f, 255.f));
+  return out;
+}
+
+}  // namespace
+
 FeatureAlignment panorama_feature_guess(const Panorama& source, const Panorama& target,
                                         const FeatureAlignmentOptions& options) {
-  auto to_u8 = [](const ImageF32& colour) {
-    ImageU8 out(colour.width, colour.height, 3);
-    for (std::size_t i = 0; i < colour.data.size(); ++i)
-      out.data[i] = static_cast<std::uint8_t>(std::clamp(colour.data[i] * 255.f + 0.5f, 0.f, 255.f));
-    return out;
-  };
-  const ImageU8 source_rgb = to_u8(source.colour), target_rgb = to_u8(target.colour);
+  const ImageU8 source_rgb = colour_u8(source.colour), target_rgb = colour_u8(target.colour);
   return align_panorama_features({&source_rgb, &source.depth}, {&target_rgb, &target.depth}, options);
+}
+
+PreparedPanorama prepare_panorama_for_registration(const Panorama& panorama, const PairRegistrationOptions& options,
+                                                   const std::string& name) {
+  PreparedPanorama prepared;
+  prepared.name = name;
+  prepared.height = panorama.pano.height;
+  try {
+    prepared.cloud = panorama_registration_cloud(panorama, options.cloud);
+  } catch (const Error& e) {
+    throw make_error(name, "", e.what());
+  }
+  const ImageU8 rgb = colour_u8(panorama.colour);
+  prepared.features = detect_panorama_features({&rgb, &panorama.depth}, options.features, name.c_str());
+  return prepared;
 }
 
 PairRegistration register_panorama_pair(const Panorama& source, const Panorama& target,
                                         const PairRegistrationOptions& options, const Rigid3d* given_initial,
                                         const std::string& source_name, const std::string& target_name) {
-  const std::string pair = source_name + " -> " + target_name;
   if (source.pano.height != target.pano.height)
-    throw make_error(pair, "size",
+    throw make_error(source_name + " -> " + target_name, "size",
                      "the panoramas differ in size (" + std::to_string(source.pano.width()) + "x" +
                          std::to_string(source.pano.height) + " and " + std::to_string(target.pano.width()) + "x" +
                          std::to_string(target.pano.height) + "); build both with the same height H");
   // Usable pixels first: a panorama without any is reported as such, not as a feature failure.
-  auto cloud_of = [&](const Panorama& panorama, const std::string& name) {
-    try {
-      return panorama_registration_cloud(panorama, options.cloud);
-    } catch (const Error& e) {
-      throw make_error(name, "", e.what());
-    }
-  };
-  const RegistrationCloud source_cloud = cloud_of(source, source_name);
-  const RegistrationCloud target_cloud = cloud_of(target, target_name);
+  const PreparedPanorama prepared_source = prepare_panorama_for_registration(source, options, source_name);
+  const PreparedPanorama prepared_target = prepare_panorama_for_registration(target, options, target_name);
+  return register_panorama_pair(prepared_source, prepared_target, options, given_initial);
+}
+
+PairRegistration register_panorama_pair(const PreparedPanorama& source, const PreparedPanorama& target,
+                                        const PairRegistrationOptions& options, const Rigid3d* given_initial) {
+  const std::string pair = source.name + " -> " + target.name;
+  if (source.height != target.height)
+    throw make_error(pair, "size",
+                     "the panoramas differ in size (H = " + std::to_string(source.height) + " and " +
+                         std::to_string(target.height) + "); build both with the same height H");
+  const RegistrationCloud& source_cloud = source.cloud;
+  const RegistrationCloud& target_cloud = target.cloud;
   PairRegistration result;
-  result.guess = panorama_feature_guess(source, target, options.features);
+  result.guess = align_panorama_features(source.features, target.features, options.features);
   Rigid3d initial;
   if (given_initial) {
     initial = *given_initial;

@@ -18,14 +18,9 @@ void FeatureAlignmentOptions::check() const {
   if (min_inliers < 3) throw make_error("", "features.min_inliers", "must be at least 3");
 }
 
-namespace {
-
-struct Features {
-  std::vector<Eigen::Vector3d> points;     // back-projected keypoints (panorama frame)
-  std::vector<OrbDescriptor> descriptors;  // aligned with points
-};
-
-Features detect(const PanoramaImages& images, const FeatureAlignmentOptions& options, const char* role) {
+PanoramaFeatures detect_panorama_features(const PanoramaImages& images, const FeatureAlignmentOptions& options,
+                                          const char* role) {
+  options.check();
   if (!images.rgb || !images.radial_depth) throw make_error("", std::string(role) + " panorama", "missing images");
   const ImageU8& rgb = *images.rgb;
   const ImageF32& depth = *images.radial_depth;
@@ -38,7 +33,7 @@ Features detect(const PanoramaImages& images, const FeatureAlignmentOptions& opt
   std::vector<OrbDescriptor> descriptors;
   detect_orb(rgb, orb, &keypoints, &descriptors);
   const Equirectangular pano{rgb.height};
-  Features features;
+  PanoramaFeatures features;
   for (std::size_t i = 0; i < keypoints.size(); ++i) {
     const int x = std::clamp(int(std::lround(keypoints[i].u)), 0, rgb.width - 1);
     const int y = std::clamp(int(std::lround(keypoints[i].v)), 0, rgb.height - 1);
@@ -50,14 +45,16 @@ Features detect(const PanoramaImages& images, const FeatureAlignmentOptions& opt
   return features;
 }
 
-}  // namespace
-
 FeatureAlignment align_panorama_features(const PanoramaImages& source, const PanoramaImages& target,
+                                         const FeatureAlignmentOptions& options) {
+  return align_panorama_features(detect_panorama_features(source, options, "source"),
+                                 detect_panorama_features(target, options, "target"), options);
+}
+
+FeatureAlignment align_panorama_features(const PanoramaFeatures& from, const PanoramaFeatures& to,
                                          const FeatureAlignmentOptions& options) {
   options.check();
   FeatureAlignment result;
-  const Features from = detect(source, options, "source");
-  const Features to = detect(target, options, "target");
   result.source_features = int(from.points.size());
   result.target_features = int(to.points.size());
   if (from.points.size() < 3 || to.points.size() < 3) {

@@ -108,6 +108,21 @@ PairRegistration register_panorama_pair(const Panorama& source, const Panorama& 
                                         const PairRegistrationOptions& options, const Rigid3d* given_initial,
                                         const std::string& source_name, const std::string& target_name);
 
+// What registration needs of one panorama, prepared once for all the pairs it is in (recon scene
+// registers each panorama with up to n - 1 others): its registration cloud with surfaces and its
+// ORB features. Throws Error naming `name` when the panorama has too few usable pixels.
+struct PreparedPanorama {
+  std::string name;
+  int height = 0;  // H of the panorama
+  RegistrationCloud cloud;
+  PanoramaFeatures features;
+};
+PreparedPanorama prepare_panorama_for_registration(const Panorama& panorama, const PairRegistrationOptions& options,
+                                                   const std::string& name);
+// The same as above on prepared panoramas (identical results).
+PairRegistration register_panorama_pair(const PreparedPanorama& source, const PreparedPanorama& target,
+                                        const PairRegistrationOptions& options, const Rigid3d* given_initial);
+
 // The panorama's points for integration (scene frame from `world_from_panorama`), with Eq. 9's
 // covariance (surface + measurement) and colours.
 PanoramaPoints panorama_integration_points(const Panorama& panorama, const Rigid3d& world_from_panorama,

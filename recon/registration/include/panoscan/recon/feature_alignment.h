@@ -4,6 +4,7 @@
 // the 3D pairs (core's rigid_ransac).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -54,6 +55,19 @@ struct FeatureAlignment {
 // How many of the feature matches a pose explains within `threshold_m`.
 int count_consistent_matches(const FeatureAlignment& features, const Rigid3d& target_from_source, double threshold_m);
 
+// A panorama's ORB features with depth: detected once, matched against every neighbour.
+struct PanoramaFeatures {
+  std::vector<Eigen::Vector3d> points;                    // back-projected keypoints (panorama frame)
+  std::vector<std::array<std::uint8_t, 32>> descriptors;  // ORB, aligned with points
+};
+
+// Throws Error (naming `role`) when the images are missing or not H x 2H of one size.
+PanoramaFeatures detect_panorama_features(const PanoramaImages& images, const FeatureAlignmentOptions& options,
+                                          const char* role = "panorama");
+
+FeatureAlignment align_panorama_features(const PanoramaFeatures& source, const PanoramaFeatures& target,
+                                         const FeatureAlignmentOptions& options);
+// Detects both, then aligns.
 FeatureAlignment align_panorama_features(const PanoramaImages& source, const PanoramaImages& target,
                                          const FeatureAlignmentOptions& options);
 
