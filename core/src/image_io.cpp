@@ -169,13 +169,14 @@ ImageU8 read_rgb(const fs::path& path) {
   if (is_png(path) && decode_png_fast(path, &png) && png.bit_depth == 8) {
     // Grey is replicated; RGBA drops alpha (as below).
     ImageU8 image(png.width, png.height, 3);
-    const std::size_t pixels = std::size_t(png.width) * png.height;
-    const unsigned char* src = png.pixels.data();
-    std::uint8_t* dst = image.data.data();
-    if (png.channels == 3) {
-      std::memcpy(dst, src, pixels * 3);
-    } else {
-      for (std::size_t i = 0; i < pixels; ++i, src += png.channels, dst += 3)
+    for (int y = 0; y < png.height; ++y) {
+      const unsigned char* src = png.row(y);
+      std::uint8_t* dst = image.row(y);
+      if (png.channels == 3) {
+        std::memcpy(dst, src, std::size_t(png.width) * 3);
+        continue;
+      }
+      for (int x = 0; x < png.width; ++x, src += png.channels, dst += 3)
         dst[0] = src[0], dst[1] = src[png.channels == 1 ? 0 : 1], dst[2] = src[png.channels == 1 ? 0 : 2];
     }
     return image;
@@ -204,8 +205,11 @@ ImageU16 read_png16(const fs::path& path) {
   DecodedPng png;
   if (is_png(path) && decode_png_fast(path, &png) && png.bit_depth == 16 && png.channels == 1) {
     ImageU16 image(png.width, png.height, 1);
-    const unsigned char* src = png.pixels.data();
-    for (std::size_t i = 0; i < image.data.size(); ++i) image.data[i] = std::uint16_t((src[2 * i] << 8) | src[2 * i + 1]);
+    for (int y = 0; y < png.height; ++y) {
+      const unsigned char* src = png.row(y);
+      std::uint16_t* dst = image.row(y);
+      for (int x = 0; x < png.width; ++x) dst[x] = std::uint16_t((src[2 * x] << 8) | src[2 * x + 1]);
+    }
     return image;
   }
   cv::Mat mat = decode(path, cv::IMREAD_UNCHANGED, true);

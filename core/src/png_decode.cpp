@@ -5,6 +5,8 @@
 #include <fstream>
 #include <iterator>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include <libdeflate.h>
 
@@ -116,31 +118,29 @@ bool decode_png_fast(const std::filesystem::path& path, DecodedPng* out) {
   const std::size_t bpp = std::size_t(channels) * (bit_depth / 8);
   const std::size_t row_bytes = std::size_t(width) * bpp;
   const std::size_t raw_size = std::size_t(height) * (row_bytes + 1);
-  std::vector<unsigned char> raw(raw_size);
+  std::unique_ptr<unsigned char[]> raw(new unsigned char[raw_size]);
   thread_local Decompressor decompressor;
   std::size_t got = 0;
   const libdeflate_result result = libdeflate_zlib_decompress(decompressor.d, compressed.data(), compressed.size(),
-                                                              raw.data(), raw.size(), &got);
+                                                              raw.get(), raw_size, &got);
   if (result != LIBDEFLATE_SUCCESS || got != raw_size)
     throw make_error(path.string(), "IDAT",
                      result == LIBDEFLATE_BAD_DATA ? "corrupt compressed image data"
                                                    : "image data does not match the IHDR size (truncated or corrupt)");
-
+  const std::vector<unsigned char> zero_row(row_bytes, 0);
+  for (int y = 0; y < height; ++y) {
+    unsigned char* filtered = raw.get() + std::size_t(y) * (row_bytes + 1);
+    const unsigned char* previous = y == 0 ? zero_row.data() : filtered - row_bytes;  // the row above's samples
+    if (!unfilter_row(filtered[0], filtered + 1, previous, row_bytes, bpp))
+      throw make_error(path.string(), "IDAT", "invalid filter type " + std::to_string(filtered[0]) + " in row " +
+                                                  std::to_string(y));
+  }
   out->width = width;
   out->height = height;
   out->channels = channels;
   out->bit_depth = bit_depth;
-  out->pixels.resize(std::size_t(height) * row_bytes);
-  std::vector<unsigned char> zero_row(row_bytes, 0);
-  for (int y = 0; y < height; ++y) {
-    unsigned char* filtered = raw.data() + std::size_t(y) * (row_bytes + 1);
-    unsigned char* row = out->pixels.data() + std::size_t(y) * row_bytes;
-    std::memcpy(row, filtered + 1, row_bytes);
-    const unsigned char* previous = y == 0 ? zero_row.data() : row - row_bytes;
-    if (!unfilter_row(filtered[0], row, previous, row_bytes, bpp))
-      throw make_error(path.string(), "IDAT", "invalid filter type " + std::to_string(filtered[0]) + " in row " +
-                                                  std::to_string(y));
-  }
+  out->row_stride = row_bytes + 1;
+  out->data = std::move(raw);
   return true;
 }
 
