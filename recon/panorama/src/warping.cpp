@@ -23,6 +23,10 @@ struct WarpVertex {
   double radial = 0.0;
   const std::uint8_t* rgb = nullptr;
   bool near_pole = false;  // |z| > 0.9 radial: only such triangles can enclose a pole
+  // ceil and floor of u and v: a triangle's box of pixel centres is [min ceil, max floor] in each
+  // coordinate (both functions are monotonic, so this is ceil(min u) .. floor(max u) exactly), four
+  // roundings per vertex instead of twelve per triangle.
+  int u_ceil = 0, u_floor = 0, v_ceil = 0, v_floor = 0;
 };
 
 // One sample of one frame as warping emits it (12 bytes): the panorama pixel and the measurement's
@@ -76,11 +80,10 @@ class RayTable {
   std::vector<double> cos_phi_, sin_phi_, sin_theta_, cos_theta_;
 };
 
-// Per-thread buffers of warp_frame, reused from frame to frame (no allocation or clearing of a
-// frame-sized vertex array per frame).
+// Per-thread buffers of warp_frame, reused from frame to frame (no allocation per frame).
 struct WarpScratch {
-  std::vector<WarpVertex> vertices;
-  std::vector<char> valid;
+  std::vector<WarpVertex> vertices[2];  // two rows of the frame
+  std::vector<char> valid[2];
   std::vector<FrameSample> samples;
 };
 
@@ -148,7 +151,9 @@ bool rasterise_triangle(const Equirectangular& pano, const RayTable& rays, const
       const double w2 = ((us[1] - us[0]) * (v - vs[0]) - (u - us[0]) * (vs[1] - vs[0])) / area2;
       const double w0 = 1.0 - w1 - w2;
       if (w0 < 0.0 || w1 < 0.0 || w2 < 0.0) continue;
-      const int u_wrapped = ((u % width) + width) % width;
+      // u is in [0, 2 W) (u >= ceil(-0.5), unwrapped by at most +W): one subtraction, not two
+      // integer divisions, wraps it.
+      const int u_wrapped = u >= width ? u - width : (u < 0 ? u + width : u);
       // Radial depth: where the pixel's ray meets the triangle's plane (the 3D position is
       // interpolated along the ray, exact for planar surfaces); barycentric fallback where the
       // plane is grazing.
@@ -158,8 +163,13 @@ bool rasterise_triangle(const Equirectangular& pano, const RayTable& rays, const
       if (std::abs(denom) > 1e-6 * normal_norm) radial = normal.dot(a.point) / denom;
       if (!(radial >= 0.9 * r_min && radial <= 1.01 * r_max)) radial = w0 * a.radial + w1 * b.radial + w2 * c.radial;
       std::uint8_t rgb[3];
-      for (int ch = 0; ch < 3; ++ch)
-        rgb[ch] = std::uint8_t(std::lround(std::clamp(w0 * a.rgb[ch] + w1 * b.rgb[ch] + w2 * c.rgb[ch], 0.0, 255.0)));
+      for (int ch = 0; ch < 3; ++ch) {
+        // std::lround of a value in [0, 255] (half away from zero), without the library call: the
+        // fraction x - trunc(x) is exact for x >= 0.
+        const double value = std::clamp(w0 * a.rgb[ch] + w1 * b.rgb[ch] + w2 * c.rgb[ch], 0.0, 255.0);
+        const int whole = int(value);
+        rgb[ch] = std::uint8_t(whole + (value - whole >= 0.5 ? 1 : 0));
+      }
       emit(std::size_t(v) * width + u_wrapped, float(radial), rgb);
     }
   }
@@ -173,19 +183,22 @@ std::size_t warp_frame(const RgbdFrame& frame, const PinholeIntrinsics& intrinsi
                        const Equirectangular& pano, const RayTable& rays, const WarpOptions& options,
                        WarpScratch& scratch) {
   const int w = frame.depth.width, h = frame.depth.height;
-  // Vertices are only read where valid is set, so the array is not cleared between frames.
-  if (scratch.vertices.size() < std::size_t(w) * h) scratch.vertices.resize(std::size_t(w) * h);
-  scratch.valid.assign(std::size_t(w) * h, 0);
-  std::vector<WarpVertex>& vertices = scratch.vertices;
-  std::vector<char>& valid = scratch.valid;
+  // Two rows of vertices, the 2x2 blocks' upper and lower row, in turn: they stay in the cache
+  // (a frame-sized array, 24 MB at 640x480, did not; the triangle loop waited on its loads).
+  // A vertex is only read where its valid flag is set, so the rows are not cleared.
+  for (int r = 0; r < 2; ++r) {
+    if (scratch.vertices[r].size() < std::size_t(w)) scratch.vertices[r].resize(std::size_t(w));
+    scratch.valid[r].assign(std::size_t(w), 0);
+  }
   std::vector<FrameSample>& samples = scratch.samples;
   samples.clear();
-  for (int y = 0; y < h; ++y) {
+  auto build_row = [&](int y, WarpVertex* vertices, char* valid) {
     for (int x = 0; x < w; ++x) {
+      valid[x] = 0;
       const float z = frame.depth.at(x, y);
       if (!(z > 0.f) || !std::isfinite(z) || z < options.min_depth_m) continue;
       if (options.max_depth_m > 0 && z > options.max_depth_m) continue;
-      WarpVertex& vtx = vertices[std::size_t(y) * w + x];
+      WarpVertex& vtx = vertices[x];
       vtx.point = pano_from_cam * intrinsics.backproject(x, y, z);
       vtx.radial = vtx.point.norm();
       if (!(vtx.radial > 1e-6)) continue;
@@ -194,9 +207,13 @@ std::size_t warp_frame(const RgbdFrame& frame, const PinholeIntrinsics& intrinsi
       vtx.v = pixel.y();
       vtx.rgb = &frame.rgb.data[(std::size_t(y) * w + x) * 3];
       vtx.near_pole = std::abs(vtx.point.z()) > 0.9 * vtx.radial;
-      valid[std::size_t(y) * w + x] = 1;
+      vtx.u_ceil = int(std::ceil(vtx.u));
+      vtx.u_floor = int(std::floor(vtx.u));
+      vtx.v_ceil = int(std::ceil(vtx.v));
+      vtx.v_floor = int(std::floor(vtx.v));
+      valid[x] = 1;
     }
-  }
+  };
   const double jump = options.max_edge_depth_jump_m;
   auto connected = [&](std::size_t i, std::size_t j) {
     return std::abs(double(frame.depth.data[i]) - double(frame.depth.data[j])) <= jump;
@@ -209,15 +226,39 @@ std::size_t warp_frame(const RgbdFrame& frame, const PinholeIntrinsics& intrinsi
     sample.rgb[1] = rgb[1];
     sample.rgb[2] = rgb[2];
   };
+  // Most triangles are smaller than a panorama pixel and contain no pixel centre: this inline test
+  // drops those whose box of pixel centres is empty, exactly where rasterise_triangle would return
+  // true without emitting (no vertex near a pole, not across the seam); the others go to it.
+  const int pano_width = pano.width(), pano_height = pano.height;
+  auto may_cover = [&](const WarpVertex& a, const WarpVertex& b, const WarpVertex& c) {
+    if (a.near_pole || b.near_pole || c.near_pole) return true;
+    if (std::max({a.u, b.u, c.u}) - std::min({a.u, b.u, c.u}) > 0.5 * pano_width) return true;  // seam
+    const int ui0 = std::min({a.u_ceil, b.u_ceil, c.u_ceil}), ui1 = std::max({a.u_floor, b.u_floor, c.u_floor});
+    const int vi0 = std::max(0, std::min({a.v_ceil, b.v_ceil, c.v_ceil}));
+    const int vi1 = std::min(pano_height - 1, std::max({a.v_floor, b.v_floor, c.v_floor}));
+    return ui0 <= ui1 && vi0 <= vi1;
+  };
+  auto rasterise = [&](const WarpVertex& a, const WarpVertex& b, const WarpVertex& c) {
+    return !may_cover(a, b, c) || rasterise_triangle(pano, rays, a, b, c, emit);
+  };
   std::size_t pole_skips = 0;
+  if (h > 0) build_row(0, scratch.vertices[0].data(), scratch.valid[0].data());
   for (int y = 0; y + 1 < h; ++y) {
+    const WarpVertex* top = scratch.vertices[y & 1].data();
+    const char* top_valid = scratch.valid[y & 1].data();
+    WarpVertex* bottom = scratch.vertices[(y + 1) & 1].data();
+    char* bottom_valid = scratch.valid[(y + 1) & 1].data();
+    build_row(y + 1, bottom, bottom_valid);
     for (int x = 0; x + 1 < w; ++x) {
+      // Depth indices of the block's corners 00, 10 (right), 01 (below), 11.
       const std::size_t i00 = std::size_t(y) * w + x, i10 = i00 + 1, i01 = i00 + w, i11 = i01 + 1;
       // Triangle (00, 10, 01) and triangle (10, 11, 01).
-      if (valid[i00] && valid[i10] && valid[i01] && connected(i00, i10) && connected(i00, i01) && connected(i10, i01))
-        if (!rasterise_triangle(pano, rays, vertices[i00], vertices[i10], vertices[i01], emit)) ++pole_skips;
-      if (valid[i10] && valid[i11] && valid[i01] && connected(i10, i11) && connected(i11, i01) && connected(i10, i01))
-        if (!rasterise_triangle(pano, rays, vertices[i10], vertices[i11], vertices[i01], emit)) ++pole_skips;
+      if (top_valid[x] && top_valid[x + 1] && bottom_valid[x] && connected(i00, i10) && connected(i00, i01) &&
+          connected(i10, i01))
+        if (!rasterise(top[x], top[x + 1], bottom[x])) ++pole_skips;
+      if (top_valid[x + 1] && bottom_valid[x + 1] && bottom_valid[x] && connected(i10, i11) && connected(i11, i01) &&
+          connected(i10, i01))
+        if (!rasterise(top[x + 1], bottom[x + 1], bottom[x])) ++pole_skips;
     }
   }
   return pole_skips;
