@@ -64,6 +64,9 @@ std::array<double, K> chunked_sums(std::size_t n, const F& f) {
 // The unknowns: one radial depth per pixel with at least one measurement.
 struct DepthProblem {
   const PanoramaMeasurements* m = nullptr;
+  // The measurements' radial depths in CSR order (m->offsets index it): the data term reads 4
+  // bytes per measurement instead of 12 (at H = 1024, 69 MB instead of 207 MB per evaluation).
+  std::vector<float> radial;
   DepthFusionMethod method = DepthFusionMethod::kTsa;
   double lambda = 0.0;
   double data_eps = 0.002, tv_eps = 1e-4, tsa_eps = 1e-7;
@@ -128,13 +131,30 @@ struct DepthProblem {
       for (std::size_t i = c * kChunk; i < end; ++i) {
         // Data term of Eq. 5 over all measurements of the pixel.
         const std::size_t p = pixel[i];
-        const depth_terms::DataTerm data = depth_terms::data_term(x[i], m->samples.data() + m->offsets[p],
-                                                                  m->samples.data() + m->offsets[p + 1], data_eps);
+        const depth_terms::DataTerm data =
+            depth_terms::data_term(x[i], radial.data() + m->offsets[p], radial.data() + m->offsets[p + 1], data_eps);
         sum.smoothed += data.smoothed;
         sum.data += data.exact;
         g_data[i] = data.gradient;
         if (grad) data_curvature[i] = data.curvature;
         using depth_terms::kAnchor, depth_terms::kLeft, depth_terms::kRight, depth_terms::kUp, depth_terms::kDown;
+        if (method == DepthFusionMethod::kTsa) {
+          // TSA (Eq. 6) straight from the arrays, no stencil assembled: the same arithmetic as
+          // tsa_term (zero where a neighbour is missing; adding a zero term changes no sum).
+          const int l = left[i], u = up[i];
+          if (l >= 0 && u >= 0) {
+            const depth_terms::TsaCore t = depth_terms::tsa_core(x[i], ray[i], x[std::size_t(l)], ray[std::size_t(l)],
+                                                                 x[std::size_t(u)], ray[std::size_t(u)], tsa_eps);
+            g_anchor[i] = t.gradient[0], h_anchor[i] = t.curvature[0];
+            g_left[i] = t.gradient[1], h_left[i] = t.curvature[1];
+            g_up[i] = t.gradient[2], h_up[i] = t.curvature[2];
+            sum.smoothed += lambda * t.smoothed;
+            sum.smoothness += t.exact;
+          } else {
+            g_anchor[i] = h_anchor[i] = g_left[i] = h_left[i] = g_up[i] = h_up[i] = 0.0;
+          }
+          continue;
+        }
         const depth_terms::StencilTerm smooth = smoothness_term(x, i);
         g_anchor[i] = smooth.gradient[kAnchor], h_anchor[i] = smooth.curvature[kAnchor];
         g_left[i] = smooth.gradient[kLeft], h_left[i] = smooth.curvature[kLeft];
@@ -492,6 +512,9 @@ Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
     });
   }
   if (options.method != DepthFusionMethod::kAverage && n > 0) {
+    problem.radial.resize(m.samples.size());
+    tbb::parallel_for(std::size_t(0), m.samples.size(),
+                      [&](std::size_t k) { problem.radial[k] = m.samples[k].radial_m; });
     // Continuation in the data term's smoothing: a wide eps first (well conditioned: moves the
     // pixels that need to move), then eps / 5 per stage down to data_epsilon_final_m, so that the
     // final solve is close to the exact L1 of Eq. 5 (whose energy is the one reported). Each
@@ -509,6 +532,7 @@ Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
       minimise_lbfgs(problem, x, options, share, out.energy);
       budget -= int(out.energy.size() - std::max<std::size_t>(before, 1));
     }
+    std::vector<float>().swap(problem.radial);
     const EnergyRecord& first = out.energy.front();
     const EnergyRecord& last = out.energy.back();
     std::ostringstream msg;

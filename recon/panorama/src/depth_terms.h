@@ -30,19 +30,26 @@ struct DataTerm {
   double curvature = 0.0;  // d^2 smoothed / d D^2
 };
 
-// The solver's hot loop (every measurement, every evaluation). The square root and the two
-// divisions of two measurements at a time are packed SSE2 instructions (correctly rounded, as the
-// scalar ones are); the four sums still take one measurement after the other. So the value is the
-// scalar loop's bit for bit, and the latency of the square root and divisions, most of the loop's
-// time, is paid once per pair.
-inline DataTerm data_term(double depth, const PanoramaMeasurement* begin, const PanoramaMeasurement* end, double eps) {
+namespace detail {
+inline double radial_of(const PanoramaMeasurement& m) { return double(m.radial_m); }
+inline double radial_of(float radial_m) { return double(radial_m); }
+}  // namespace detail
+
+// The solver's hot loop (every measurement, every evaluation), over the measurements themselves or
+// over a plain array of their radial depths (the solver's copy: a third of the memory traffic).
+// The square root and the two divisions of two measurements at a time are packed SSE2 instructions
+// (correctly rounded, as the scalar ones are); the four sums still take one measurement after the
+// other. So the value is the scalar loop's bit for bit, and the latency of the square root and
+// divisions, most of the loop's time, is paid once per pair.
+template <typename Measurement>
+DataTerm data_term(double depth, const Measurement* begin, const Measurement* end, double eps) {
   DataTerm t;
   const double eps2 = eps * eps;
-  const PanoramaMeasurement* m = begin;
+  const Measurement* m = begin;
 #if defined(__SSE2__)
   const __m128d eps2_pair = _mm_set1_pd(eps2);
   for (; end - m >= 2; m += 2) {
-    const double r0 = depth - double(m[0].radial_m), r1 = depth - double(m[1].radial_m);
+    const double r0 = depth - detail::radial_of(m[0]), r1 = depth - detail::radial_of(m[1]);
     const __m128d r = _mm_set_pd(r1, r0);
     const __m128d s = _mm_sqrt_pd(_mm_add_pd(_mm_mul_pd(r, r), eps2_pair));
     const __m128d gradient = _mm_div_pd(r, s);
@@ -61,7 +68,7 @@ inline DataTerm data_term(double depth, const PanoramaMeasurement* begin, const 
   }
 #endif
   for (; m != end; ++m) {
-    const double r = depth - double(m->radial_m);
+    const double r = depth - detail::radial_of(*m);
     const double s = std::sqrt(r * r + eps2);
     t.smoothed += s - eps;
     t.exact += std::abs(r);
@@ -122,12 +129,22 @@ inline StencilTerm tv_term(const Stencil& st, bool cylindrical, double eps) {
 
 // Eq. 6, total surface area: the area |dP_-phi x dP_-theta| of the quad spanned by the anchor's
 // point and its left and upper neighbours' points. Needs both neighbours (else zero).
-inline StencilTerm tsa_term(const Stencil& st, double eps) {
-  StencilTerm t;
-  if (!st.present[kLeft] || !st.present[kUp]) return t;
-  const Eigen::Vector3d pi = st.point(kAnchor);
-  const Eigen::Vector3d a = pi - st.point(kLeft);
-  const Eigen::Vector3d b = pi - st.point(kUp);
+// tsa_term's arithmetic on the anchor p and its left (l) and upper (u) neighbours, both present
+// (each given as depth and unit ray); index 0, 1, 2 of gradient and curvature = anchor, left, up.
+// The solver calls it directly (no stencil assembled per pixel); tsa_term calls it too, so both
+// give the same bits.
+struct TsaCore {
+  double smoothed = 0.0, exact = 0.0;
+  double gradient[3] = {0, 0, 0};
+  double curvature[3] = {0, 0, 0};
+};
+
+inline TsaCore tsa_core(double depth_p, const Eigen::Vector3d& ray_p, double depth_l, const Eigen::Vector3d& ray_l,
+                        double depth_u, const Eigen::Vector3d& ray_u, double eps) {
+  TsaCore t;
+  const Eigen::Vector3d pi = depth_p * ray_p;
+  const Eigen::Vector3d a = pi - depth_l * ray_l;
+  const Eigen::Vector3d b = pi - depth_u * ray_u;
   const Eigen::Vector3d c = a.cross(b);
   const double norm2 = c.squaredNorm();
   const double s = std::sqrt(norm2 + eps * eps);
@@ -135,12 +152,27 @@ inline StencilTerm tsa_term(const Stencil& st, double eps) {
   const Eigen::Vector3d grad_a = b.cross(g), grad_b = g.cross(a);
   t.smoothed = s - eps;
   t.exact = std::sqrt(norm2);
-  t.gradient[kAnchor] = (grad_a + grad_b).dot(st.ray[kAnchor]);
-  t.gradient[kLeft] = -grad_a.dot(st.ray[kLeft]);
-  t.gradient[kUp] = -grad_b.dot(st.ray[kUp]);
-  t.curvature[kAnchor] = st.ray[kAnchor].cross(b - a).squaredNorm() / s;
-  t.curvature[kLeft] = st.ray[kLeft].cross(b).squaredNorm() / s;
-  t.curvature[kUp] = st.ray[kUp].cross(a).squaredNorm() / s;
+  t.gradient[0] = (grad_a + grad_b).dot(ray_p);
+  t.gradient[1] = -grad_a.dot(ray_l);
+  t.gradient[2] = -grad_b.dot(ray_u);
+  t.curvature[0] = ray_p.cross(b - a).squaredNorm() / s;
+  t.curvature[1] = ray_l.cross(b).squaredNorm() / s;
+  t.curvature[2] = ray_u.cross(a).squaredNorm() / s;
+  return t;
+}
+
+inline StencilTerm tsa_term(const Stencil& st, double eps) {
+  StencilTerm t;
+  if (!st.present[kLeft] || !st.present[kUp]) return t;
+  const TsaCore core = tsa_core(st.depth[kAnchor], st.ray[kAnchor], st.depth[kLeft], st.ray[kLeft], st.depth[kUp],
+                                st.ray[kUp], eps);
+  t.smoothed = core.smoothed;
+  t.exact = core.exact;
+  const int slots[3] = {kAnchor, kLeft, kUp};
+  for (int k = 0; k < 3; ++k) {
+    t.gradient[slots[k]] = core.gradient[k];
+    t.curvature[slots[k]] = core.curvature[k];
+  }
   return t;
 }
 
