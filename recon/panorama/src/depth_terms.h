@@ -10,8 +10,10 @@
 // Gauss-Newton for TP's squared norms), the diagonal preconditioner of L-BFGS.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -41,9 +43,9 @@ inline double radial_of(float radial_m) { return double(radial_m); }
 // (correctly rounded, as the scalar ones are); the four sums still take one measurement after the
 // other. So the value is the scalar loop's bit for bit, and the latency of the square root and
 // divisions, most of the loop's time, is paid once per pair.
+// `t` holds the sums so far (data_term_pair continues a pixel's sums here).
 template <typename Measurement>
-DataTerm data_term(double depth, const Measurement* begin, const Measurement* end, double eps) {
-  DataTerm t;
+DataTerm data_term(double depth, const Measurement* begin, const Measurement* end, double eps, DataTerm t = {}) {
   const double eps2 = eps * eps;
   const Measurement* m = begin;
 #if defined(__SSE2__)
@@ -76,6 +78,39 @@ DataTerm data_term(double depth, const Measurement* begin, const Measurement* en
     t.curvature += eps2 / (s * s * s);
   }
   return t;
+}
+
+// data_term of two pixels at once (the solver's loop): lane 0 of each packed instruction is pixel
+// 0's measurement k, lane 1 pixel 1's, so each pixel's sums still take its measurements one after
+// the other (its value is data_term's bit for bit) while the two pixels' additions, square roots
+// and divisions share instructions. The longer set is finished by data_term.
+inline void data_term_pair(double depth0, const float* begin0, const float* end0, double depth1, const float* begin1,
+                           const float* end1, double eps, DataTerm& t0, DataTerm& t1) {
+  t0 = DataTerm{};
+  t1 = DataTerm{};
+  std::ptrdiff_t k = 0;
+#if defined(__SSE2__)
+  const std::ptrdiff_t common = std::min(end0 - begin0, end1 - begin1);
+  const double eps2 = eps * eps;
+  const __m128d eps_pair = _mm_set1_pd(eps), eps2_pair = _mm_set1_pd(eps2), sign = _mm_set1_pd(-0.0);
+  const __m128d depth = _mm_set_pd(depth1, depth0);
+  __m128d smoothed = _mm_setzero_pd(), exact = _mm_setzero_pd(), gradient = _mm_setzero_pd(),
+          curvature = _mm_setzero_pd();
+  for (; k < common; ++k) {
+    const __m128d r = _mm_sub_pd(depth, _mm_set_pd(double(begin1[k]), double(begin0[k])));
+    const __m128d s = _mm_sqrt_pd(_mm_add_pd(_mm_mul_pd(r, r), eps2_pair));
+    smoothed = _mm_add_pd(smoothed, _mm_sub_pd(s, eps_pair));
+    exact = _mm_add_pd(exact, _mm_andnot_pd(sign, r));  // |r|
+    gradient = _mm_add_pd(gradient, _mm_div_pd(r, s));
+    curvature = _mm_add_pd(curvature, _mm_div_pd(eps2_pair, _mm_mul_pd(_mm_mul_pd(s, s), s)));
+  }
+  const auto lo = [](__m128d v) { return _mm_cvtsd_f64(v); };
+  const auto hi = [](__m128d v) { return _mm_cvtsd_f64(_mm_unpackhi_pd(v, v)); };
+  t0.smoothed = lo(smoothed), t0.exact = lo(exact), t0.gradient = lo(gradient), t0.curvature = lo(curvature);
+  t1.smoothed = hi(smoothed), t1.exact = hi(exact), t1.gradient = hi(gradient), t1.curvature = hi(curvature);
+#endif
+  t0 = data_term(depth0, begin0 + k, end0, eps, t0);
+  t1 = data_term(depth1, begin1 + k, end1, eps, t1);
 }
 
 // The stencil of a smoothness term: the anchor pixel and its four neighbours (azimuth periodic),
@@ -164,8 +199,8 @@ inline TsaCore tsa_core(double depth_p, const Eigen::Vector3d& ray_p, double dep
 inline StencilTerm tsa_term(const Stencil& st, double eps) {
   StencilTerm t;
   if (!st.present[kLeft] || !st.present[kUp]) return t;
-  const TsaCore core = tsa_core(st.depth[kAnchor], st.ray[kAnchor], st.depth[kLeft], st.ray[kLeft], st.depth[kUp],
-                                st.ray[kUp], eps);
+  const TsaCore core =
+      tsa_core(st.depth[kAnchor], st.ray[kAnchor], st.depth[kLeft], st.ray[kLeft], st.depth[kUp], st.ray[kUp], eps);
   t.smoothed = core.smoothed;
   t.exact = core.exact;
   const int slots[3] = {kAnchor, kLeft, kUp};

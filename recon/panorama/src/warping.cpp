@@ -324,8 +324,8 @@ PanoramaMeasurements warp_frames(const ScanIndex& scan, const RigTrajectory& tra
     frame_pixels += frame.depth.data.size();
     valid_frame_pixels += count_valid_depth(frame.depth, options);
     WarpScratch& local = scratch.local();
-    pole_skips += warp_frame(frame, scan.rig.sensors[job.sensor].intrinsics, pano_from_cam(job), out.pano, rays,
-                             options, local);
+    pole_skips +=
+        warp_frame(frame, scan.rig.sensors[job.sensor].intrinsics, pano_from_cam(job), out.pano, rays, options, local);
     frame_samples[j].assign(local.samples.begin(), local.samples.end());  // exact size
   });
   scratch.clear();
