@@ -4,8 +4,11 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdint>
+#include <vector>
 
 #include <fmt/format.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include "panoscan/core/error.h"
@@ -19,6 +22,69 @@ struct WarpVertex {
   double u = 0.0, v = 0.0;  // continuous panorama pixel coordinates
   double radial = 0.0;
   const std::uint8_t* rgb = nullptr;
+  bool near_pole = false;  // |z| > 0.9 radial: only such triangles can enclose a pole
+  // ceil and floor of u and v: a triangle's box of pixel centres is [min ceil, max floor] in each
+  // coordinate (both functions are monotonic, so this is ceil(min u) .. floor(max u) exactly), four
+  // roundings per vertex instead of twelve per triangle.
+  int u_ceil = 0, u_floor = 0, v_ceil = 0, v_floor = 0;
+};
+
+// One sample of one frame as warping emits it (12 bytes): the panorama pixel and the measurement's
+// radial depth and colour; its sensor and frame are those of the frame's job. Each frame's samples
+// are kept until all frames are warped, so every frame is read and warped once (the sizes of the
+// measurement sets are only known at the end).
+struct FrameSample {
+  std::uint32_t pixel = 0;  // v * W + u; H <= 16384 (WarpOptions::check) gives at most 2^29 pixels
+  float radial = 0.f;
+  std::uint8_t rgb[3] = {0, 0, 0};
+};
+static_assert(sizeof(FrameSample) == 12, "FrameSample is meant to be 12 bytes");
+
+// The unit rays of the panorama's pixel centres, Equirectangular::direction(u, v) =
+// (sin theta_v cos phi_u, sin theta_v sin phi_u, cos theta_v), from one table per column and one per
+// row instead of a sine and a cosine per rasterised pixel. The factors are taken from direction()
+// itself, at phi = 0 (cos 1, sin 0) and on the row with sin theta = 1, so that every product is the
+// one direction() computes, bit for bit; where those two rows are not exact (they are for any H
+// checked), every ray falls back to direction().
+class RayTable {
+ public:
+  explicit RayTable(const Equirectangular& pano) : pano_(pano) {
+    const int width = pano.width(), height = pano.height;
+    const double equator_v = 0.5 * (height - 1);  // theta = pi/2
+    exact_ = pano.direction(-0.5, equator_v).x() == 1.0;
+    cos_phi_.resize(std::size_t(width));
+    sin_phi_.resize(std::size_t(width));
+    for (int u = 0; u < width && exact_; ++u) {
+      const Eigen::Vector3d d = pano.direction(u, equator_v);
+      cos_phi_[std::size_t(u)] = d.x();
+      sin_phi_[std::size_t(u)] = d.y();
+    }
+    sin_theta_.resize(std::size_t(height));
+    cos_theta_.resize(std::size_t(height));
+    for (int v = 0; v < height && exact_; ++v) {
+      const Eigen::Vector3d d = pano.direction(-0.5, v);  // phi = 0
+      exact_ = exact_ && d.y() == 0.0;
+      sin_theta_[std::size_t(v)] = d.x();
+      cos_theta_[std::size_t(v)] = d.z();
+    }
+  }
+  Eigen::Vector3d operator()(int u, int v) const {
+    if (!exact_) return pano_.direction(u, v);
+    const double st = sin_theta_[std::size_t(v)];
+    return {st * cos_phi_[std::size_t(u)], st * sin_phi_[std::size_t(u)], cos_theta_[std::size_t(v)]};
+  }
+
+ private:
+  Equirectangular pano_;
+  bool exact_ = false;
+  std::vector<double> cos_phi_, sin_phi_, sin_theta_, cos_theta_;
+};
+
+// Per-thread buffers of warp_frame, reused from frame to frame (no allocation per frame).
+struct WarpScratch {
+  std::vector<WarpVertex> vertices[2];  // two rows of the frame
+  std::vector<char> valid[2];
+  std::vector<FrameSample> samples;
 };
 
 struct FrameJob {
@@ -29,8 +95,8 @@ struct FrameJob {
 // Rasterises one triangle; calls emit(pixel_index, radial, rgb) for every panorama pixel centre
 // inside it. Returns false if the triangle encloses a pole (skipped).
 template <typename Emit>
-bool rasterise_triangle(const Equirectangular& pano, const WarpVertex& a, const WarpVertex& b, const WarpVertex& c,
-                        const Emit& emit) {
+bool rasterise_triangle(const Equirectangular& pano, const RayTable& rays, const WarpVertex& a, const WarpVertex& b,
+                        const WarpVertex& c, const Emit& emit) {
   const int width = pano.width();
   const int height = pano.height;
   double us[3] = {a.u, b.u, c.u};
@@ -42,14 +108,25 @@ bool rasterise_triangle(const Equirectangular& pano, const WarpVertex& a, const 
   if (u_max0 - u_min0 > 0.5 * width)
     for (double& u : us)
       if (u < 0.5 * width) u += width;
-  // Pole: the panorama ray straight up or down passes through the triangle (its projection would
-  // wrap all the way round). Only possible when a vertex is near a pole.
+  // Most triangles are smaller than a panorama pixel and contain no pixel centre. Without a vertex
+  // near a pole (the pole test below cannot skip the triangle) the empty bounding box is tested
+  // first; otherwise in the order normal, pole, box. Either way a triangle returns what it did when
+  // the box came last: an empty box and a zero normal both return true.
+  const bool near_pole = a.near_pole || b.near_pole || c.near_pole;
+  const double u_lo = std::min({us[0], us[1], us[2]}), u_hi = std::max({us[0], us[1], us[2]});
+  const double v_lo = std::min({vs[0], vs[1], vs[2]}), v_hi = std::max({vs[0], vs[1], vs[2]});
+  const int ui0 = int(std::ceil(u_lo)), ui1 = int(std::floor(u_hi));
+  const int vi0 = std::max(0, int(std::ceil(v_lo))), vi1 = std::min(height - 1, int(std::floor(v_hi)));
+  const bool empty_box = ui1 < ui0 || vi1 < vi0;
+  if (!near_pole && empty_box) return true;
   const WarpVertex* verts[3] = {&a, &b, &c};
   const Eigen::Vector3d normal = (b.point - a.point).cross(c.point - a.point);
   const double normal_norm = normal.norm();
   if (normal_norm <= 0.0) return true;
+  // Pole: the panorama ray straight up or down passes through the triangle (its projection would
+  // wrap all the way round). Only possible when a vertex is near a pole.
   for (const WarpVertex* vtx : verts) {
-    if (std::abs(vtx->point.z()) > 0.9 * vtx->radial) {
+    if (vtx->near_pole) {
       for (const double sign : {1.0, -1.0}) {
         // Does the ray t * (0, 0, sign) hit the triangle? Signs of the three edge volumes.
         const Eigen::Vector3d d(0, 0, sign);
@@ -61,11 +138,7 @@ bool rasterise_triangle(const Equirectangular& pano, const WarpVertex& a, const 
       break;
     }
   }
-  const double u_lo = std::min({us[0], us[1], us[2]}), u_hi = std::max({us[0], us[1], us[2]});
-  const double v_lo = std::min({vs[0], vs[1], vs[2]}), v_hi = std::max({vs[0], vs[1], vs[2]});
-  const int ui0 = int(std::ceil(u_lo)), ui1 = int(std::floor(u_hi));
-  const int vi0 = std::max(0, int(std::ceil(v_lo))), vi1 = std::min(height - 1, int(std::floor(v_hi)));
-  if (ui1 < ui0 || vi1 < vi0) return true;
+  if (empty_box) return true;
   if (double(ui1 - ui0 + 1) * double(vi1 - vi0 + 1) > 4096.0) return true;  // degenerate sliver
   const double area2 = (us[1] - us[0]) * (vs[2] - vs[0]) - (us[2] - us[0]) * (vs[1] - vs[0]);
   if (std::abs(area2) < 1e-12) return true;
@@ -78,18 +151,25 @@ bool rasterise_triangle(const Equirectangular& pano, const WarpVertex& a, const 
       const double w2 = ((us[1] - us[0]) * (v - vs[0]) - (u - us[0]) * (vs[1] - vs[0])) / area2;
       const double w0 = 1.0 - w1 - w2;
       if (w0 < 0.0 || w1 < 0.0 || w2 < 0.0) continue;
-      const int u_wrapped = ((u % width) + width) % width;
+      // u is in [0, 2 W) (u >= ceil(-0.5), unwrapped by at most +W): one subtraction, not two
+      // integer divisions, wraps it.
+      const int u_wrapped = u >= width ? u - width : (u < 0 ? u + width : u);
       // Radial depth: where the pixel's ray meets the triangle's plane (the 3D position is
       // interpolated along the ray, exact for planar surfaces); barycentric fallback where the
       // plane is grazing.
-      const Eigen::Vector3d ray = pano.direction(u_wrapped, v);
+      const Eigen::Vector3d ray = rays(u_wrapped, v);
       const double denom = normal.dot(ray);
       double radial = -1.0;
       if (std::abs(denom) > 1e-6 * normal_norm) radial = normal.dot(a.point) / denom;
       if (!(radial >= 0.9 * r_min && radial <= 1.01 * r_max)) radial = w0 * a.radial + w1 * b.radial + w2 * c.radial;
       std::uint8_t rgb[3];
-      for (int ch = 0; ch < 3; ++ch)
-        rgb[ch] = std::uint8_t(std::lround(std::clamp(w0 * a.rgb[ch] + w1 * b.rgb[ch] + w2 * c.rgb[ch], 0.0, 255.0)));
+      for (int ch = 0; ch < 3; ++ch) {
+        // std::lround of a value in [0, 255] (half away from zero), without the library call: the
+        // fraction x - trunc(x) is exact for x >= 0.
+        const double value = std::clamp(w0 * a.rgb[ch] + w1 * b.rgb[ch] + w2 * c.rgb[ch], 0.0, 255.0);
+        const int whole = int(value);
+        rgb[ch] = std::uint8_t(whole + (value - whole >= 0.5 ? 1 : 0));
+      }
       emit(std::size_t(v) * width + u_wrapped, float(radial), rgb);
     }
   }
@@ -97,19 +177,28 @@ bool rasterise_triangle(const Equirectangular& pano, const WarpVertex& a, const 
 }
 
 // Warps one frame: builds the organised mesh (two triangles per 2x2 block of valid pixels whose
-// depths differ pairwise by at most lambda_a) and rasterises it.
-template <typename Emit>
+// depths differ pairwise by at most lambda_a) and rasterises it into scratch.samples (cleared first).
+// Returns the number of triangles skipped at the poles.
 std::size_t warp_frame(const RgbdFrame& frame, const PinholeIntrinsics& intrinsics, const Rigid3d& pano_from_cam,
-                       const Equirectangular& pano, const WarpOptions& options, const Emit& emit) {
+                       const Equirectangular& pano, const RayTable& rays, const WarpOptions& options,
+                       WarpScratch& scratch) {
   const int w = frame.depth.width, h = frame.depth.height;
-  std::vector<WarpVertex> vertices(std::size_t(w) * h);
-  std::vector<char> valid(std::size_t(w) * h, 0);
-  for (int y = 0; y < h; ++y) {
+  // Two rows of vertices, the 2x2 blocks' upper and lower row, in turn: they stay in the cache
+  // (a frame-sized array, 24 MB at 640x480, did not; the triangle loop waited on its loads).
+  // A vertex is only read where its valid flag is set, so the rows are not cleared.
+  for (int r = 0; r < 2; ++r) {
+    if (scratch.vertices[r].size() < std::size_t(w)) scratch.vertices[r].resize(std::size_t(w));
+    scratch.valid[r].assign(std::size_t(w), 0);
+  }
+  std::vector<FrameSample>& samples = scratch.samples;
+  samples.clear();
+  auto build_row = [&](int y, WarpVertex* vertices, char* valid) {
     for (int x = 0; x < w; ++x) {
+      valid[x] = 0;
       const float z = frame.depth.at(x, y);
       if (!(z > 0.f) || !std::isfinite(z) || z < options.min_depth_m) continue;
       if (options.max_depth_m > 0 && z > options.max_depth_m) continue;
-      WarpVertex& vtx = vertices[std::size_t(y) * w + x];
+      WarpVertex& vtx = vertices[x];
       vtx.point = pano_from_cam * intrinsics.backproject(x, y, z);
       vtx.radial = vtx.point.norm();
       if (!(vtx.radial > 1e-6)) continue;
@@ -117,22 +206,59 @@ std::size_t warp_frame(const RgbdFrame& frame, const PinholeIntrinsics& intrinsi
       vtx.u = pixel.x();
       vtx.v = pixel.y();
       vtx.rgb = &frame.rgb.data[(std::size_t(y) * w + x) * 3];
-      valid[std::size_t(y) * w + x] = 1;
+      vtx.near_pole = std::abs(vtx.point.z()) > 0.9 * vtx.radial;
+      vtx.u_ceil = int(std::ceil(vtx.u));
+      vtx.u_floor = int(std::floor(vtx.u));
+      vtx.v_ceil = int(std::ceil(vtx.v));
+      vtx.v_floor = int(std::floor(vtx.v));
+      valid[x] = 1;
     }
-  }
+  };
   const double jump = options.max_edge_depth_jump_m;
   auto connected = [&](std::size_t i, std::size_t j) {
     return std::abs(double(frame.depth.data[i]) - double(frame.depth.data[j])) <= jump;
   };
+  const auto emit = [&](std::size_t pixel, float radial, const std::uint8_t* rgb) {
+    FrameSample& sample = samples.emplace_back();
+    sample.pixel = std::uint32_t(pixel);
+    sample.radial = radial;
+    sample.rgb[0] = rgb[0];
+    sample.rgb[1] = rgb[1];
+    sample.rgb[2] = rgb[2];
+  };
+  // Most triangles are smaller than a panorama pixel and contain no pixel centre: this inline test
+  // drops those whose box of pixel centres is empty, exactly where rasterise_triangle would return
+  // true without emitting (no vertex near a pole, not across the seam); the others go to it.
+  const int pano_width = pano.width(), pano_height = pano.height;
+  auto may_cover = [&](const WarpVertex& a, const WarpVertex& b, const WarpVertex& c) {
+    if (a.near_pole || b.near_pole || c.near_pole) return true;
+    if (std::max({a.u, b.u, c.u}) - std::min({a.u, b.u, c.u}) > 0.5 * pano_width) return true;  // seam
+    const int ui0 = std::min({a.u_ceil, b.u_ceil, c.u_ceil}), ui1 = std::max({a.u_floor, b.u_floor, c.u_floor});
+    const int vi0 = std::max(0, std::min({a.v_ceil, b.v_ceil, c.v_ceil}));
+    const int vi1 = std::min(pano_height - 1, std::max({a.v_floor, b.v_floor, c.v_floor}));
+    return ui0 <= ui1 && vi0 <= vi1;
+  };
+  auto rasterise = [&](const WarpVertex& a, const WarpVertex& b, const WarpVertex& c) {
+    return !may_cover(a, b, c) || rasterise_triangle(pano, rays, a, b, c, emit);
+  };
   std::size_t pole_skips = 0;
+  if (h > 0) build_row(0, scratch.vertices[0].data(), scratch.valid[0].data());
   for (int y = 0; y + 1 < h; ++y) {
+    const WarpVertex* top = scratch.vertices[y & 1].data();
+    const char* top_valid = scratch.valid[y & 1].data();
+    WarpVertex* bottom = scratch.vertices[(y + 1) & 1].data();
+    char* bottom_valid = scratch.valid[(y + 1) & 1].data();
+    build_row(y + 1, bottom, bottom_valid);
     for (int x = 0; x + 1 < w; ++x) {
+      // Depth indices of the block's corners 00, 10 (right), 01 (below), 11.
       const std::size_t i00 = std::size_t(y) * w + x, i10 = i00 + 1, i01 = i00 + w, i11 = i01 + 1;
       // Triangle (00, 10, 01) and triangle (10, 11, 01).
-      if (valid[i00] && valid[i10] && valid[i01] && connected(i00, i10) && connected(i00, i01) && connected(i10, i01))
-        if (!rasterise_triangle(pano, vertices[i00], vertices[i10], vertices[i01], emit)) ++pole_skips;
-      if (valid[i10] && valid[i11] && valid[i01] && connected(i10, i11) && connected(i11, i01) && connected(i10, i01))
-        if (!rasterise_triangle(pano, vertices[i10], vertices[i11], vertices[i01], emit)) ++pole_skips;
+      if (top_valid[x] && top_valid[x + 1] && bottom_valid[x] && connected(i00, i10) && connected(i00, i01) &&
+          connected(i10, i01))
+        if (!rasterise(top[x], top[x + 1], bottom[x])) ++pole_skips;
+      if (top_valid[x + 1] && bottom_valid[x + 1] && bottom_valid[x] && connected(i10, i11) && connected(i11, i01) &&
+          connected(i10, i01))
+        if (!rasterise(top[x + 1], bottom[x + 1], bottom[x])) ++pole_skips;
     }
   }
   return pole_skips;
@@ -182,21 +308,27 @@ PanoramaMeasurements warp_frames(const ScanIndex& scan, const RigTrajectory& tra
   auto pano_from_cam = [&](const FrameJob& job) {
     return Rigid3d(pano_from_world * trajectory.world_from_cam[job.sensor][job.frame].world_from_cam);
   };
-  // Pass 1: count the measurements per pixel. Pass 2: scatter them into the CSR array (positions
-  // within a pixel depend on the scheduling), then sort each pixel's set, which makes the layout
-  // independent of the thread count. Frames are read twice to keep memory to the CSR array alone.
-  std::vector<std::atomic<std::uint32_t>> counts(pixels);
-  for (auto& count : counts) count.store(0, std::memory_order_relaxed);
+  // Every frame is read and warped once, in parallel; its samples are kept per frame (12 bytes each,
+  // the size of a measurement). Then the per-pixel counts give the CSR offsets, and each frame's
+  // samples are scattered into their pixels' sets (positions within a set depend on the
+  // scheduling) and freed, and each set is sorted, which makes the layout independent of the
+  // thread count. (Formerly every frame was read and warped twice, once to count and once to
+  // scatter, to keep memory to the CSR array alone: decoding and warping were most of the time.)
+  const RayTable rays(out.pano);
+  tbb::enumerable_thread_specific<WarpScratch> scratch;
+  std::vector<std::vector<FrameSample>> frame_samples(jobs.size());
   std::atomic<std::size_t> pole_skips{0}, frame_pixels{0}, valid_frame_pixels{0};
   tbb::parallel_for(std::size_t(0), jobs.size(), [&](std::size_t j) {
     const FrameJob& job = jobs[j];
     const RgbdFrame frame = load_frame(scan, job.sensor, job.frame);
     frame_pixels += frame.depth.data.size();
     valid_frame_pixels += count_valid_depth(frame.depth, options);
-    pole_skips += warp_frame(
-        frame, scan.rig.sensors[job.sensor].intrinsics, pano_from_cam(job), out.pano, options,
-        [&](std::size_t pixel, float, const std::uint8_t*) { counts[pixel].fetch_add(1, std::memory_order_relaxed); });
+    WarpScratch& local = scratch.local();
+    pole_skips +=
+        warp_frame(frame, scan.rig.sensors[job.sensor].intrinsics, pano_from_cam(job), out.pano, rays, options, local);
+    frame_samples[j].assign(local.samples.begin(), local.samples.end());  // exact size
   });
+  scratch.clear();
   out.frame_pixels = frame_pixels.load();
   out.valid_frame_pixels = valid_frame_pixels.load();
   const double valid_share = out.frame_pixels ? double(out.valid_frame_pixels) / double(out.frame_pixels) : 0.0;
@@ -206,25 +338,28 @@ PanoramaMeasurements warp_frames(const ScanIndex& scan, const RigTrajectory& tra
                                  "{:.0f}% expected, panorama.min_valid_depth_share): a wrong depth_scale in "
                                  "rig.json, a covered sensor or a scan of empty space?",
                                  100.0 * valid_share, jobs.size(), 100.0 * options.min_valid_depth_share));
+  std::vector<std::atomic<std::uint32_t>> counts(pixels);
+  for (auto& count : counts) count.store(0, std::memory_order_relaxed);
+  tbb::parallel_for(std::size_t(0), jobs.size(), [&](std::size_t j) {
+    for (const FrameSample& sample : frame_samples[j]) counts[sample.pixel].fetch_add(1, std::memory_order_relaxed);
+  });
   out.offsets.assign(pixels + 1, 0);
   for (std::size_t p = 0; p < pixels; ++p) out.offsets[p + 1] = out.offsets[p] + counts[p].load();
   out.samples.resize(out.offsets[pixels]);
   for (auto& count : counts) count.store(0, std::memory_order_relaxed);
   tbb::parallel_for(std::size_t(0), jobs.size(), [&](std::size_t j) {
     const FrameJob& job = jobs[j];
-    const RgbdFrame frame = load_frame(scan, job.sensor, job.frame);
-    warp_frame(frame, scan.rig.sensors[job.sensor].intrinsics, pano_from_cam(job), out.pano, options,
-               [&](std::size_t pixel, float radial, const std::uint8_t* rgb) {
-                 const std::uint32_t slot = counts[pixel].fetch_add(1, std::memory_order_relaxed);
-                 if (out.offsets[pixel] + slot >= out.offsets[pixel + 1]) return;  // cannot happen: same input
-                 PanoramaMeasurement& m = out.samples[out.offsets[pixel] + slot];
-                 m.radial_m = radial;
-                 m.rgb[0] = rgb[0];
-                 m.rgb[1] = rgb[1];
-                 m.rgb[2] = rgb[2];
-                 m.sensor = std::uint8_t(job.sensor);
-                 m.frame = std::uint32_t(job.frame);
-               });
+    for (const FrameSample& sample : frame_samples[j]) {
+      const std::uint32_t slot = counts[sample.pixel].fetch_add(1, std::memory_order_relaxed);
+      PanoramaMeasurement& m = out.samples[out.offsets[sample.pixel] + slot];
+      m.radial_m = sample.radial;
+      m.rgb[0] = sample.rgb[0];
+      m.rgb[1] = sample.rgb[1];
+      m.rgb[2] = sample.rgb[2];
+      m.sensor = std::uint8_t(job.sensor);
+      m.frame = std::uint32_t(job.frame);
+    }
+    std::vector<FrameSample>().swap(frame_samples[j]);  // frees the frame's samples
   });
   tbb::parallel_for(std::size_t(0), pixels, [&](std::size_t p) {
     auto begin = out.samples.begin() + std::ptrdiff_t(out.offsets[p]);
