@@ -132,7 +132,7 @@ std::string encode(const std::uint8_t* raw, int width, int height, int channels,
   be32_at(0, std::uint32_t(width));
   be32_at(4, std::uint32_t(height));
   header[8] = std::uint8_t(bit_depth);
-  header[9] = channels == 3 ? 2 : 0;  // colour type: truecolour or greyscale
+  header[9] = channels == 3 ? 2 : 0;         // colour type: truecolour or greyscale
   header[10] = header[11] = header[12] = 0;  // deflate, adaptive filtering, no interlace
   put_chunk(png, "IHDR", header, sizeof header);
   put_chunk(png, "IDAT", compressed.data(), compressed_size);
