@@ -97,6 +97,21 @@ void BM_RaysFullRender(benchmark::State& state) {
       benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
 }
 
+// The renderer alone (depth, colour, incidence, ids: rays and shading, no noise): the part of the
+// full render that Embree's rate bounds.
+void BM_RaysRenderOnly(benchmark::State& state) {
+  const Simulator sim(office(), 0, full_size_options());
+  const PinholeIntrinsics& k = sim.rig().intrinsics;
+  const auto poses = view_poses(sim, 30);
+  std::size_t view = 0;
+  for (auto _ : state) {
+    const RenderedView rendered = sim.renderer().render(poses[view++ % poses.size()], k);
+    benchmark::DoNotOptimize(rendered.depth.data.data());
+  }
+  state.counters["rays_per_s"] =
+      benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
+}
+
 // One whole scanning position (3 x 990 frames at 640x480, default options) written to disk as
 // `panoscan sim` writes it: frames x pixels per second (the speed report's ratio against bare
 // Embree), the disk size, and the stage breakdown of SimStageTimes as counters (thread seconds;
@@ -150,6 +165,7 @@ BENCHMARK(BM_RaysBareEmbreePackets16)
     ->MeasureProcessCPUTime()
     ->UseRealTime();
 BENCHMARK(BM_RaysFullRender)->Unit(benchmark::kMillisecond)->MinTime(2.0)->MeasureProcessCPUTime()->UseRealTime();
+BENCHMARK(BM_RaysRenderOnly)->Unit(benchmark::kMillisecond)->MinTime(2.0)->MeasureProcessCPUTime()->UseRealTime();
 // Replaces BM_SimulateOnePosition (the same whole position, without the rate and the stages).
 BENCHMARK(BM_SimEndToEnd)->Arg(0)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 

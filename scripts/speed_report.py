@@ -103,6 +103,9 @@ def ratios(results):
     lines.append(ratio_line("full render / bare Embree (16-ray packets)", full,
                             family_counter(render, "BM_RaysBareEmbreePackets16", "rays_per_s"),
                             "rays/s; the renderer traces 16-ray packets"))
+    lines.append(ratio_line("renderer only / bare Embree (8-ray packets)",
+                            family_counter(render, "BM_RaysRenderOnly", "rays_per_s"), packets8,
+                            "rays/s; rays + shading, no noise"))
     lines.append(ratio_line("sim end to end / bare Embree (8-ray packets)",
                             family_counter(render, "BM_SimEndToEnd", "pixels_per_s"), packets8,
                             "frames x pixels/s of a whole position, PNG files included; issue 20 aim >= 0.4"))

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <type_traits>
 
@@ -71,7 +72,14 @@ struct Renderer::Impl {
   const Texture& mip_level(int texture, unsigned triangle, float pixel_footprint_m) const {
     const auto& levels = mip_levels[texture];
     const float texels_per_pixel = pixel_footprint_m * triangle_texels_per_metre[triangle];
-    const int level = texels_per_pixel >= 2.f ? std::ilogb(texels_per_pixel) : 0;  // floor(log2)
+    // floor(log2) from the exponent bits: what std::ilogb returns for the values >= 2 taken here
+    // (all normal; +inf gives 128, clamped below as ilogb's INT_MAX is), without its libm call per pixel.
+    int level = 0;
+    if (texels_per_pixel >= 2.f) {
+      std::uint32_t bits;
+      std::memcpy(&bits, &texels_per_pixel, sizeof bits);
+      level = int((bits >> 23) & 0xffu) - 127;
+    }
     return levels[std::min<int>(level, int(levels.size()) - 1)];
   }
 
