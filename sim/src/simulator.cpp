@@ -282,9 +282,13 @@ double Simulator::probe_depth_coverage() const {
   tbb::task_arena arena(threads);
   arena.execute([&] {
     tbb::parallel_for(std::size_t(0), probes.size(), [&](std::size_t k) {
-      const SimulatedFrame frame = render_frame(probes[k]);
-      for (float z : frame.clean_depth.data) valid[k] += z > 0.f;
-      pixels[k] = frame.clean_depth.data.size();
+      // The clean depth within the sensor's range, as render_frame makes it, without the noise and
+      // colour steps that render_frame would spend on a frame that is never written.
+      const RenderedView view =
+          renderer_.render(world_from_cam(probes[k].sensor, probes[k].timestamp), rig_.intrinsics);
+      for (float z : view.depth.data)
+        valid[k] += z > 0.f && z >= options_.noise.min_depth_m && z <= options_.noise.max_depth_m;
+      pixels[k] = view.depth.data.size();
     });
   });
   std::size_t valid_sum = 0, pixel_sum = 0;
