@@ -118,12 +118,15 @@ void run_sim(const SimArguments& a, const std::vector<std::string>& defaults) {
   const int position = find_position(scene, a.position);
   const Simulator simulator(scene, position, options);
   const auto start = std::chrono::steady_clock::now();
-  const std::size_t frames = simulator.write_scan(a.out, a.overwrite);
+  SimStageTimes times;
+  const std::size_t frames = simulator.write_scan(a.out, a.overwrite, &times);
   const double seconds = seconds_since(start);
   std::cout << fmt::format("wrote {} ({} {}, {} frames from {} cameras at {}x{}, noise {}, {:.1f} s, {:.1f} MB)\n",
                            a.out, scene.name, scene.positions[position].name, frames, simulator.rig().num_sensors(),
                            options.rig.width, options.rig.height, to_string(options.noise.preset), seconds,
                            directory_size(a.out) / 1e6);
+  // Where the time went (sim/README.md explains the stages).
+  log_info("sim: " + times.summary());
 }
 
 void run_eval_cloud(const EvalCloudArguments& a) {

@@ -1,8 +1,10 @@
 // Renderer speed against bare Embree on the same rays, in the same run (docs/ARCHITECTURE.md §14.2: report ratios),
-// and the time and disk size of one full simulated scanning position.
+// and a whole simulated scanning position end to end (PNG files included) with its stage breakdown.
+// The Rays benchmarks also measure the process's CPU time (the "CPU" column): on a machine shared
+// with other work it compares variants better than the real time.
 //
-//   build/benchmarks/render_benchmark                       # all
-//   build/benchmarks/render_benchmark --benchmark_filter=Rays   # the ratio only
+//   build/benchmarks/render_benchmark                           # all
+//   build/benchmarks/render_benchmark --benchmark_filter=Rays   # the ray ratios only
 #include <filesystem>
 
 #include <benchmark/benchmark.h>
@@ -72,6 +74,13 @@ void BM_RaysBareEmbreePackets(benchmark::State& state) {
   });
 }
 
+// Packets of 16, as the renderer traces them: how much of the renderer's speed is the wider packet.
+void BM_RaysBareEmbreePackets16(benchmark::State& state) {
+  bare_embree(state, [](const Renderer& r, const Rigid3d& pose, const PinholeIntrinsics& k, int begin, int end) {
+    return r.intersect_only_packets16(pose, k, begin, end);
+  });
+}
+
 // Depth + colour + normals + ids + Handa noise + exposure: everything but the PNG files.
 void BM_RaysFullRender(benchmark::State& state) {
   const Simulator sim(office(), 0, full_size_options());
@@ -88,15 +97,34 @@ void BM_RaysFullRender(benchmark::State& state) {
       benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
 }
 
-// One whole scanning position (3 x ~990 frames at 640x480) written to disk.
-void BM_SimulateOnePosition(benchmark::State& state) {
+// The renderer alone (depth, colour, incidence, ids: rays and shading, no noise): the part of the
+// full render that Embree's rate bounds.
+void BM_RaysRenderOnly(benchmark::State& state) {
+  const Simulator sim(office(), 0, full_size_options());
+  const PinholeIntrinsics& k = sim.rig().intrinsics;
+  const auto poses = view_poses(sim, 30);
+  std::size_t view = 0;
+  for (auto _ : state) {
+    const RenderedView rendered = sim.renderer().render(poses[view++ % poses.size()], k);
+    benchmark::DoNotOptimize(rendered.depth.data.data());
+  }
+  state.counters["rays_per_s"] =
+      benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
+}
+
+// One whole scanning position (3 x 990 frames at 640x480, default options) written to disk as
+// `panoscan sim` writes it: frames x pixels per second (the speed report's ratio against bare
+// Embree), the disk size, and the stage breakdown of SimStageTimes as counters (thread seconds;
+// *_share: of the per-frame stages' sum).
+void BM_SimEndToEnd(benchmark::State& state) {
   SimOptions options = full_size_options();
-  options.output.every = int(state.range(0));
+  options.output.max_frames = int(state.range(0));  // 0: the whole turn
   const Simulator sim(office(), 0, options);
   const fs::path out = fs::temp_directory_path() / "panoscan-bench-scan";
-  double bytes = 0, frames = 0;
+  double bytes = 0;
+  SimStageTimes times;
   for (auto _ : state) {
-    frames = double(sim.write_scan(out, true));
+    sim.write_scan(out, true, &times);
     state.PauseTiming();
     bytes = 0;
     for (const auto& entry : fs::recursive_directory_iterator(out))
@@ -104,15 +132,41 @@ void BM_SimulateOnePosition(benchmark::State& state) {
     state.ResumeTiming();
   }
   fs::remove_all(out);
-  state.counters["frames"] = frames;
+  state.counters["frames"] = double(times.frames);
   state.counters["disk_MB"] = bytes / 1e6;
+  state.counters["pixels_per_s"] =
+      benchmark::Counter(double(state.iterations()) * double(times.pixels), benchmark::Counter::kIsRate);
+  const std::pair<const char*, double> stages[] = {
+      {"rays", times.rays_s},     {"shading", times.shading_s}, {"depth_noise", times.depth_noise_s},
+      {"colour", times.colour_s}, {"encode", times.encode_s},   {"ground_truth", times.ground_truth_s},
+      {"write", times.write_s}};
+  double sum = 0;
+  for (const auto& stage : stages) sum += stage.second;
+  for (const auto& [name, seconds] : stages) {
+    state.counters[std::string(name) + "_s"] = seconds;
+    state.counters[std::string(name) + "_share"] = sum > 0 ? seconds / sum : 0.0;
+  }
+  state.counters["idle_or_other_s"] = times.frame_threads_s - sum;
+  state.counters["probe_s"] = times.probe_s;
+  state.counters["finish_s"] = times.finish_s;
 }
 
 }  // namespace
 
-BENCHMARK(BM_RaysBareEmbree)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
-BENCHMARK(BM_RaysBareEmbreePackets)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
-BENCHMARK(BM_RaysFullRender)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
-BENCHMARK(BM_SimulateOnePosition)->Arg(1)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_RaysBareEmbree)->Unit(benchmark::kMillisecond)->MinTime(2.0)->MeasureProcessCPUTime()->UseRealTime();
+BENCHMARK(BM_RaysBareEmbreePackets)
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(2.0)
+    ->MeasureProcessCPUTime()
+    ->UseRealTime();
+BENCHMARK(BM_RaysBareEmbreePackets16)
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(2.0)
+    ->MeasureProcessCPUTime()
+    ->UseRealTime();
+BENCHMARK(BM_RaysFullRender)->Unit(benchmark::kMillisecond)->MinTime(2.0)->MeasureProcessCPUTime()->UseRealTime();
+BENCHMARK(BM_RaysRenderOnly)->Unit(benchmark::kMillisecond)->MinTime(2.0)->MeasureProcessCPUTime()->UseRealTime();
+// Replaces BM_SimulateOnePosition (the same whole position, without the rate and the stages).
+BENCHMARK(BM_SimEndToEnd)->Arg(0)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 BENCHMARK_MAIN();

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <optional>
 #include <string>
@@ -165,6 +166,52 @@ TEST_F(IoTest, Png16BitRoundTripIsExact) {
   EXPECT_EQ(back.height, 6);
   EXPECT_EQ(back.channels, 1);
   EXPECT_EQ(back.data, image.data);
+}
+
+// The encoder's filters (Sub and none at levels 0-1, a choice per row from 2 on) and both sample
+// formats on an image with flat areas, gradients and noise, as a rendered frame has.
+TEST_F(IoTest, EncodedPngsDecodeExactlyAtEveryLevel) {
+  ImageU8 rgb(37, 23, 3), grey(37, 23, 1);
+  ImageU16 depth(37, 23, 1);
+  for (int y = 0; y < 23; ++y)
+    for (int x = 0; x < 37; ++x) {
+      for (int c = 0; c < 3; ++c) rgb.at(x, y, c) = std::uint8_t(x < 10 ? 200 : (x * 7 + y * 3 + c * 50 + x * y) % 256);
+      grey.at(x, y) = std::uint8_t((x * x + y) % 256);
+      depth.at(x, y) = std::uint16_t(y < 5 ? 0 : 2500 + 300 * x + (x * y * 977) % 4000);
+    }
+  for (int level = 0; level <= 9; ++level) {
+    const fs::path rgb_path = dir_ / "rgb.png", grey_path = dir_ / "grey.png", depth_path = dir_ / "depth.png";
+    write_file_atomic(rgb_path, encode_png(rgb, level));
+    write_file_atomic(grey_path, encode_png(grey, level));
+    write_file_atomic(depth_path, encode_png16(depth, level));
+    EXPECT_EQ(read_rgb(rgb_path).data, rgb.data) << "level " << level;
+    const ImageU8 grey_back = read_rgb(grey_path);
+    for (int y = 0; y < 23; ++y)
+      for (int x = 0; x < 37; ++x) ASSERT_EQ(grey_back.at(x, y, 1), grey.at(x, y)) << "level " << level;
+    EXPECT_EQ(read_png16(depth_path).data, depth.data) << "level " << level;
+    const PngHeader header = read_png_header(depth_path);
+    EXPECT_EQ(header.bit_depth, 16);
+    EXPECT_EQ(header.channels, 1);
+  }
+}
+
+TEST_F(IoTest, WritePngWritesTheEncodedBytes) {
+  const ImageU8 image = make_rgb(13, 7);
+  const fs::path path = dir_ / "colour.png";
+  write_png(path, image, 1);
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(bytes, encode_png(image, 1));
+  EXPECT_EQ(encode_png(image, 1), encode_png(image, 1));  // deterministic
+}
+
+TEST_F(IoTest, EncodingRefusesBadImagesAndLevels) {
+  ImageU8 two_channels(4, 3, 2);
+  EXPECT_THAT(testutil::error_of([&] { encode_png(two_channels); }), HasSubstr("4x3x2"));
+  ImageU16 inconsistent(4, 3, 1);
+  inconsistent.data.pop_back();
+  EXPECT_THAT(testutil::error_of([&] { encode_png16(inconsistent); }), HasSubstr("inconsistent"));
+  EXPECT_THAT(testutil::error_of([&] { encode_png(make_rgb(4, 3), 10); }), HasSubstr("[0, 9]"));
 }
 
 TEST_F(IoTest, WritingOverAnExistingPngReplacesIt) {

@@ -275,6 +275,39 @@ TEST_F(ScanTest, TempPathIsInsideTheScanAndCommittedWithIt) {
   EXPECT_THAT(message, HasSubstr("committed"));
 }
 
+TEST_F(ScanTest, EncodedFramesReadBackAsWrittenFrames) {
+  const fs::path scan_dir = dir_ / "scan";
+  {
+    ScanWriter writer(scan_dir, make_rig(1), false);
+    for (int f = 0; f < kFrames; ++f)
+      writer.write_encoded_frame(0, frame_timestamp(0, f), encode_png(make_rgb(0, f)), encode_png16(make_depth(0, f)));
+    writer.commit();
+  }
+  const ScanIndex scan = read_scan_index(scan_dir);
+  ASSERT_EQ(scan.frames[0].size(), std::size_t(kFrames));
+  for (int f = 0; f < kFrames; ++f) {
+    const RgbdFrame frame = load_frame(scan, 0, f);
+    EXPECT_EQ(frame.rgb.data, make_rgb(0, f).data);
+    EXPECT_EQ(depth_to_png_units(frame.depth, 5000.0).data, make_depth(0, f).data);
+  }
+}
+
+TEST_F(ScanTest, EncodedFramesOfTheWrongShapeOrOrderAreRefused) {
+  ScanWriter writer(dir_ / "scan", make_rig(1), false);
+  const std::string rgb = encode_png(make_rgb(0, 0)), depth = encode_png16(make_depth(0, 0));
+  std::string message = error_of([&] { writer.write_encoded_frame(0, 1.0, encode_png(make_rgb(0, 0, 4, 3)), depth); });
+  EXPECT_THAT(message, HasSubstr("cam0 rgb image size"));
+  EXPECT_THAT(message, HasSubstr("expected 8x6, found 4x3"));
+  message = error_of([&] { writer.write_encoded_frame(0, 1.0, rgb, rgb); });
+  EXPECT_THAT(message, HasSubstr("cam0 depth image"));
+  EXPECT_THAT(message, HasSubstr("bit depth 8"));
+  message = error_of([&] { writer.write_encoded_frame(0, 1.0, "not a png", depth); });
+  EXPECT_THAT(message, HasSubstr("not an encoded PNG"));
+  writer.write_encoded_frame(0, 2.0, rgb, depth);
+  message = error_of([&] { writer.write_encoded_frame(0, 1.5, rgb, depth); });
+  EXPECT_THAT(message, HasSubstr("does not increase"));
+}
+
 // ---------------------------------------------------------------- rig.json
 
 TEST(RigJson, RoundTrip) {

@@ -11,12 +11,9 @@ std::uint64_t mix64(std::uint64_t z) {
   return z ^ (z >> 31);
 }
 
-namespace {
-inline std::uint64_t rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
-}  // namespace
-
 RandomStream::RandomStream(std::uint64_t seed, std::int64_t camera, std::int64_t frame, RandomPurpose purpose,
-                           std::int64_t lane) {
+                           std::int64_t lane)
+    : ziggurat_(&detail::ziggurat_tables()) {
   // Chain the key parts through the mixer so that nearby keys give unrelated states.
   std::uint64_t h = mix64(seed);
   h = mix64(h ^ static_cast<std::uint64_t>(camera + 0x1234));
@@ -29,19 +26,6 @@ RandomStream::RandomStream(std::uint64_t seed, std::int64_t camera, std::int64_t
   }
 }
 
-std::uint64_t RandomStream::next_u64() {
-  // xoshiro256** (Blackman & Vigna).
-  const std::uint64_t result = rotl(state_[1] * 5, 7) * 9;
-  const std::uint64_t t = state_[1] << 17;
-  state_[2] ^= state_[0];
-  state_[3] ^= state_[1];
-  state_[1] ^= state_[2];
-  state_[0] ^= state_[3];
-  state_[2] ^= t;
-  state_[3] = rotl(state_[3], 45);
-  return result;
-}
-
 double RandomStream::uniform() { return static_cast<double>(next_u64() >> 11) * 0x1.0p-53; }
 
 double RandomStream::uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
@@ -51,58 +35,45 @@ int RandomStream::uniform_int(int lo, int hi_inclusive) {
   return lo + static_cast<int>(next_u64() % span);
 }
 
-namespace {
+namespace detail {
 
-// Ziggurat tables for the standard normal (Marsaglia & Tsang 2000, 128 layers of equal area v):
-// layer i is a rectangle [0, width[i]] x [f(width[i]), f(width[i+1])] with f(x) = exp(-x^2/2);
-// layer 0 is the base strip plus the tail beyond r.
-struct ZigguratTables {
-  static constexpr int kLayers = 128;
-  static constexpr double kTailStart = 3.442619855899;       // r
-  static constexpr double kLayerArea = 9.91256303526217e-3;  // v
-  double width[kLayers + 1];
-  double height[kLayers + 1];  // f(width)
+ZigguratTables::ZigguratTables() {
+  auto f = [](double x) { return std::exp(-0.5 * x * x); };
+  width[0] = kLayerArea / f(kTailStart);
+  width[1] = kTailStart;
+  for (int i = 2; i < kLayers; ++i) width[i] = std::sqrt(-2.0 * std::log(kLayerArea / width[i - 1] + f(width[i - 1])));
+  width[kLayers] = 0.0;
+  for (int i = 0; i <= kLayers; ++i) height[i] = f(width[i]);
+}
 
-  ZigguratTables() {
-    auto f = [](double x) { return std::exp(-0.5 * x * x); };
-    width[0] = kLayerArea / f(kTailStart);
-    width[1] = kTailStart;
-    for (int i = 2; i < kLayers; ++i)
-      width[i] = std::sqrt(-2.0 * std::log(kLayerArea / width[i - 1] + f(width[i - 1])));
-    width[kLayers] = 0.0;
-    for (int i = 0; i <= kLayers; ++i) height[i] = f(width[i]);
-  }
-};
-
-const ZigguratTables& ziggurat() {
+const ZigguratTables& ziggurat_tables() {
   static const ZigguratTables tables;
   return tables;
 }
 
-}  // namespace
+}  // namespace detail
 
-double RandomStream::normal() {
-  // Ziggurat: one 64-bit draw and a comparison for ~99% of samples; exact in distribution.
-  const ZigguratTables& z = ziggurat();
+double RandomStream::normal_outside_core(std::uint64_t bits) {
+  const detail::ZigguratTables& z = *ziggurat_;
   for (;;) {
-    const std::uint64_t bits = next_u64();
     const int layer = static_cast<int>(bits & 127u);
     const double sign = (bits & 128u) ? -1.0 : 1.0;
     const double u = static_cast<double>(bits >> 11) * 0x1.0p-53;
     const double x = u * z.width[layer];
-    if (x < z.width[layer + 1]) return sign * x;  // inside the rectangle's core
+    if (x < z.width[layer + 1]) return sign * x;  // inside the rectangle's core (a redraw)
     if (layer == 0) {
       // Tail beyond r (Marsaglia 1964).
       double a, b;
       do {
-        a = -std::log(1.0 - uniform()) / ZigguratTables::kTailStart;
+        a = -std::log(1.0 - uniform()) / detail::ZigguratTables::kTailStart;
         b = -std::log(1.0 - uniform());
       } while (2.0 * b < a * a);
-      return sign * (ZigguratTables::kTailStart + a);
+      return sign * (detail::ZigguratTables::kTailStart + a);
     }
     // Wedge between the rectangle and the curve.
     const double y = z.height[layer] + uniform() * (z.height[layer + 1] - z.height[layer]);
     if (y < std::exp(-0.5 * x * x)) return sign * x;
+    bits = next_u64();
   }
 }
 

@@ -678,8 +678,52 @@ void ScanWriter::write_frame(int sensor, double timestamp, const ImageU8& rgb, c
   impl_->add_entry(sensor, timestamp_text, rgb_file, depth_file);
 }
 
-void ScanWriter::add_frame_files(int sensor, double timestamp, const fs::path& rgb_source,
-                                 const fs::path& depth_source, FileTransfer transfer) {
+namespace {
+
+// Width, height, bit depth and colour type from an encoded PNG's IHDR chunk; throws naming `what`.
+void check_encoded_png(const std::string& png, const SensorInfo& info, int bit_depth, int colour_type,
+                       const std::string& origin, const std::string& what) {
+  const auto byte = [&](std::size_t at) { return std::uint32_t(static_cast<unsigned char>(png[at])); };
+  const auto be32 = [&](std::size_t at) {
+    return (byte(at) << 24) | (byte(at + 1) << 16) | (byte(at + 2) << 8) | byte(at + 3);
+  };
+  if (png.size() < 33 || png.compare(0, 8, "\x89PNG\r\n\x1a\n", 8) != 0 || png.compare(12, 4, "IHDR") != 0)
+    throw make_error(origin, info.name + " " + what, "not an encoded PNG");
+  if (be32(16) != std::uint32_t(info.intrinsics.width) || be32(20) != std::uint32_t(info.intrinsics.height))
+    throw make_error(origin, info.name + " " + what + " size",
+                     "expected " + size_text(info.intrinsics.width, info.intrinsics.height) + ", found " +
+                         size_text(int(be32(16)), int(be32(20))));
+  if (int(byte(24)) != bit_depth || int(byte(25)) != colour_type)
+    throw make_error(origin, info.name + " " + what,
+                     "wrong sample format (bit depth " + std::to_string(byte(24)) + ", colour type " +
+                         std::to_string(byte(25)) + ")");
+}
+
+}  // namespace
+
+void ScanWriter::write_encoded_frame(int sensor, double timestamp, const std::string& rgb_png,
+                                     const std::string& depth_png) {
+  std::string timestamp_text;
+  fs::path camera_dir;
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->check_not_committed();
+    const SensorInfo& info = impl_->sensor_info(sensor);
+    check_encoded_png(rgb_png, info, 8, 2, impl_->origin(), "rgb image");
+    check_encoded_png(depth_png, info, 16, 0, impl_->origin(), "depth image");
+    timestamp_text = impl_->reserve_timestamp(sensor, timestamp);
+    camera_dir = impl_->directory->temp_path() / info.name;
+  }
+  const std::string rgb_file = "rgb/" + timestamp_text + ".png";
+  const std::string depth_file = "depth/" + timestamp_text + ".png";
+  write_file_atomic(camera_dir / rgb_file, rgb_png);
+  write_file_atomic(camera_dir / depth_file, depth_png);
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->add_entry(sensor, timestamp_text, rgb_file, depth_file);
+}
+
+void ScanWriter::add_frame_files(int sensor, double timestamp, const fs::path& rgb_source, const fs::path& depth_source,
+                                 FileTransfer transfer) {
   std::string timestamp_text;
   fs::path camera_dir;
   {
@@ -689,11 +733,10 @@ void ScanWriter::add_frame_files(int sensor, double timestamp, const fs::path& r
     camera_dir = impl_->directory->temp_path() / impl_->rig.sensors[sensor].name;
   }
   std::string rgb_extension = rgb_source.extension().string();
-  const bool plain_extension =
-      rgb_extension.size() >= 2 && rgb_extension.size() <= 6 &&
-      std::all_of(rgb_extension.begin() + 1, rgb_extension.end(), [](char c) {
-        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9');
-      });
+  const bool plain_extension = rgb_extension.size() >= 2 && rgb_extension.size() <= 6 &&
+                               std::all_of(rgb_extension.begin() + 1, rgb_extension.end(), [](char c) {
+                                 return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9');
+                               });
   if (!plain_extension) rgb_extension = ".png";
   const std::string rgb_file = "rgb/" + timestamp_text + rgb_extension;
   const std::string depth_file = "depth/" + timestamp_text + ".png";

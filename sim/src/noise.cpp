@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -15,6 +16,19 @@ namespace {
 
 // 35130 / Z_cm = 351.3 / Z_m.
 constexpr double kDisparityTimesMetres = kHandaDisparityConstant / 100.0;
+
+// kDisparityTimesMetres / q for the whole disparities q the sensor's range produces (351 / 0.5 m
+// = 703; 4096 leaves room for any range): the same quotients as the division, computed once,
+// because the per-pixel division was the slowest step of the noise model.
+constexpr int kDepthTableSize = 4096;
+const std::vector<double>& depth_of_disparity_table() {
+  static const std::vector<double> table = [] {
+    std::vector<double> t(kDepthTableSize, 0.0);
+    for (int q = 1; q < kDepthTableSize; ++q) t[q] = kDisparityTimesMetres / double(q);
+    return t;
+  }();
+  return table;
+}
 
 }  // namespace
 
@@ -41,6 +55,7 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
   const bool lateral = options.preset == NoisePreset::kHandaIcl;
   const int band_rows = static_cast<int>(std::lround(options.ir_band_fraction * height));
   const double min_cos = std::cos(deg2rad(options.max_incidence_deg));
+  const std::vector<double>& depth_of_disparity = depth_of_disparity_table();
 
   // Inverse depth per pixel, 0 where the sensor has no measurement (no hit, or outside its
   // range): such a pixel invalidates every lookup that touches it. Computed once per frame so
@@ -109,9 +124,17 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
 
         // Step 2: disparity noise and unbiased rounding to whole disparity units.
         const double disparity = kDisparityTimesMetres * inv + disparity_noise + speckle_noise;
-        const double quantised = std::floor(disparity + 0.5);
-        if (quantised <= 0) continue;
-        const double z_noisy = kDisparityTimesMetres / quantised;
+        // floor(disparity + 0.5) > 0 exactly when disparity + 0.5 >= 1; below 2^31 the integer
+        // conversion truncates, which for positive values is the floor (std::floor is a libm
+        // sequence on the baseline x86-64 target).
+        const double rounded = disparity + 0.5;
+        if (!(rounded >= 1.0)) continue;
+        double z_noisy;
+        if (rounded < double(kDepthTableSize)) {
+          z_noisy = depth_of_disparity[static_cast<int>(rounded)];
+        } else {
+          z_noisy = kDisparityTimesMetres / std::floor(rounded);
+        }
         // Step 3: sensor range.
         if (z_noisy < options.min_depth_m || z_noisy > options.max_depth_m) continue;
         noisy.at(x, y) = static_cast<float>(z_noisy);

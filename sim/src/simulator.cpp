@@ -2,11 +2,16 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
+#include <memory>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
 
 #include "panoscan/core/pose_json.h"
@@ -14,6 +19,7 @@
 #include "panoscan/core/log.h"
 #include "panoscan/core/version.h"
 #include "panoscan/core/random.h"
+#include "panoscan/core/image_io.h"
 #include "panoscan/sim/noise.h"
 
 namespace panoscan {
@@ -32,7 +38,50 @@ ScanPosition checked_position(const Scene& scene, int position_index) {
   return scene.positions[position_index];
 }
 
+std::int64_t now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+// Adds the thread time of its scope to `sink` (nothing when null).
+class ScopedClock {
+ public:
+  explicit ScopedClock(std::atomic<std::int64_t>* sink) : sink_(sink), start_(sink ? now_ns() : 0) {}
+  ~ScopedClock() {
+    if (sink_) *sink_ += now_ns() - start_;
+  }
+  ScopedClock(const ScopedClock&) = delete;
+  ScopedClock& operator=(const ScopedClock&) = delete;
+
+ private:
+  std::atomic<std::int64_t>* sink_;
+  std::int64_t start_;
+};
+
+double seconds_of(const std::atomic<std::int64_t>& ns) { return double(ns.load()) * 1e-9; }
+
 }  // namespace
+
+struct Simulator::StageClocks {
+  RenderTimes render;
+  std::atomic<std::int64_t> depth_noise{0}, colour{0}, encode{0}, ground_truth{0}, write{0};
+};
+
+std::string SimStageTimes::summary() const {
+  const std::pair<const char*, double> stages[] = {
+      {"rays", rays_s},     {"shading", shading_s}, {"depth noise", depth_noise_s},
+      {"colour", colour_s}, {"encode", encode_s},   {"ground truth", ground_truth_s},
+      {"write", write_s}};
+  double sum = 0;
+  for (const auto& stage : stages) sum += stage.second;
+  std::string text = fmt::format("{} frames in {:.1f} s ({:.1f} Mpixel/s); per frame, thread seconds:", frames, wall_s,
+                                 wall_s > 0 ? double(pixels) / wall_s * 1e-6 : 0.0);
+  for (const auto& [name, seconds] : stages)
+    text += fmt::format(" {} {:.1f} ({:.0f}%),", name, seconds, sum > 0 ? 100.0 * seconds / sum : 0.0);
+  text += fmt::format(" other {:.1f}; once, wall seconds: probe {:.1f}, finish {:.1f}", frame_threads_s - sum, probe_s,
+                      finish_s);
+  return text;
+}
 
 Simulator::Simulator(const Scene& scene, int position_index, const SimOptions& options)
     : scene_(scene),
@@ -156,7 +205,9 @@ std::string Simulator::rig_truth_json() const {
   return j.dump(2) + "\n";
 }
 
-SimulatedFrame Simulator::render_frame(const FrameTime& frame) const {
+SimulatedFrame Simulator::render_frame(const FrameTime& frame) const { return render_frame(frame, nullptr); }
+
+SimulatedFrame Simulator::render_frame(const FrameTime& frame, StageClocks* clocks) const {
   SimulatedFrame out;
   out.sensor = frame.sensor;
   out.index = frame.index;
@@ -164,8 +215,10 @@ SimulatedFrame Simulator::render_frame(const FrameTime& frame) const {
   out.world_from_cam = world_from_cam(frame.sensor, frame.timestamp);
   RenderRequest request;
   request.normals = options_.output.normals;
-  RenderedView view = renderer_.render(out.world_from_cam, rig_.intrinsics, request);
+  RenderedView view =
+      renderer_.render(out.world_from_cam, rig_.intrinsics, request, clocks ? &clocks->render : nullptr);
 
+  std::optional<ScopedClock> clock(std::in_place, clocks ? &clocks->depth_noise : nullptr);
   // Noiseless ground-truth depth: the exact z, limited to the sensor's range.
   out.clean_depth = view.depth;
   for (float& z : out.clean_depth.data)
@@ -184,6 +237,7 @@ SimulatedFrame Simulator::render_frame(const FrameTime& frame) const {
     if (frame.sensor == upper) input.speckle_bottom = true;
   }
   out.depth = apply_depth_noise(input, options_.noise, options_.seed);
+  clock.emplace(clocks ? &clocks->colour : nullptr);
 
   const NoiseOptions& noise = options_.noise;
   if (noise.exposure || noise.colour_noise_std > 0) {
@@ -228,9 +282,13 @@ double Simulator::probe_depth_coverage() const {
   tbb::task_arena arena(threads);
   arena.execute([&] {
     tbb::parallel_for(std::size_t(0), probes.size(), [&](std::size_t k) {
-      const SimulatedFrame frame = render_frame(probes[k]);
-      for (float z : frame.clean_depth.data) valid[k] += z > 0.f;
-      pixels[k] = frame.clean_depth.data.size();
+      // The clean depth within the sensor's range, as render_frame makes it, without the noise and
+      // colour steps that render_frame would spend on a frame that is never written.
+      const RenderedView view =
+          renderer_.render(world_from_cam(probes[k].sensor, probes[k].timestamp), rig_.intrinsics);
+      for (float z : view.depth.data)
+        valid[k] += z > 0.f && z >= options_.noise.min_depth_m && z <= options_.noise.max_depth_m;
+      pixels[k] = view.depth.data.size();
     });
   });
   std::size_t valid_sum = 0, pixel_sum = 0;
@@ -241,7 +299,8 @@ double Simulator::probe_depth_coverage() const {
   return pixel_sum == 0 ? 0.0 : double(valid_sum) / double(pixel_sum);
 }
 
-std::size_t Simulator::write_scan(const std::filesystem::path& scan_dir, bool overwrite) const {
+std::size_t Simulator::write_scan(const std::filesystem::path& scan_dir, bool overwrite, SimStageTimes* times) const {
+  const std::int64_t start = now_ns();
   const int num_sensors = int(rig_.num_sensors());
   std::size_t total = 0;
   for (const auto& frames : schedule_) total += frames.size();
@@ -256,33 +315,101 @@ std::size_t Simulator::write_scan(const std::filesystem::path& scan_dir, bool ov
                                    "object?",
                                    100.0 * coverage, 100.0 * options_.output.min_depth_coverage));
   }
+  const std::int64_t probed = now_ns();
 
   ScanWriter writer(scan_dir, rig_info(), overwrite, options_.output.png_compression);
   std::vector<std::vector<StampedPose>> truth(num_sensors);
   Progress progress("simulating " + scene_.name + " " + position_.name, total);
+  // Every frame of every camera in time order: the order in which they are written. Each
+  // camera's frames stay in time order, as the writer requires.
+  std::vector<FrameTime> order;
+  order.reserve(total);
+  for (const auto& frames : schedule_) order.insert(order.end(), frames.begin(), frames.end());
+  std::stable_sort(order.begin(), order.end(),
+                   [](const FrameTime& a, const FrameTime& b) { return a.timestamp < b.timestamp; });
+  StageClocks clocks;
   const int threads = options_.threads > 0 ? options_.threads : tbb::task_arena::automatic;
   tbb::task_arena arena(threads);
+  // A frame's colour and depth PNGs, encoded by a worker, waiting for their turn to be written.
+  struct EncodedFrame {
+    const FrameTime* frame = nullptr;
+    Rigid3d world_from_cam = Rigid3d::Identity();
+    std::string rgb_png, depth_png;
+  };
+  std::size_t next = 0;
   arena.execute([&] {
-    // Sensors in parallel (each writes its frames in time order), rows in parallel inside.
-    tbb::parallel_for(0, num_sensors, [&](int sensor) {
-      for (const FrameTime& frame : schedule_[sensor]) {
-        const SimulatedFrame simulated = render_frame(frame);
-        writer.write_frame(sensor, frame.timestamp, simulated.rgb, depth_to_png_units(simulated.depth, 5000.0));
-        if (options_.output.clean_depth)
-          writer.write_clean_depth(sensor, frame.timestamp, depth_to_png_units(simulated.clean_depth, 5000.0));
-        if (options_.output.normals) writer.write_groundtruth_normals(sensor, frame.timestamp, simulated.normal_cam);
-        if (options_.output.ids)
-          writer.write_groundtruth_ids(sensor, frame.timestamp, simulated.triangle_id, simulated.material_id);
-        truth[sensor].push_back({frame.timestamp, simulated.world_from_cam});
-        progress.advance();
-      }
-    });
+    // Frames render and encode in parallel (rows in parallel inside each) and are written one at
+    // a time in `order`: the PNG encoding, once a third of the time, no longer waits on the other
+    // cameras' frames or serialises a camera's frames. Two frames in flight per thread keep the
+    // workers busy while one writes.
+    tbb::parallel_pipeline(
+        std::size_t(2 * arena.max_concurrency()),
+        tbb::make_filter<void, std::shared_ptr<EncodedFrame>>(
+            tbb::filter_mode::serial_in_order,
+            [&](tbb::flow_control& control) -> std::shared_ptr<EncodedFrame> {
+              if (next == order.size()) {
+                control.stop();
+                return nullptr;
+              }
+              auto encoded = std::make_shared<EncodedFrame>();
+              encoded->frame = &order[next++];
+              return encoded;
+            }) &
+            tbb::make_filter<std::shared_ptr<EncodedFrame>, std::shared_ptr<EncodedFrame>>(
+                tbb::filter_mode::parallel,
+                [&](std::shared_ptr<EncodedFrame> encoded) {
+                  const FrameTime& frame = *encoded->frame;
+                  const SimulatedFrame simulated = render_frame(frame, &clocks);
+                  encoded->world_from_cam = simulated.world_from_cam;
+                  {
+                    ScopedClock clock(&clocks.encode);
+                    encoded->rgb_png = encode_png(simulated.rgb, options_.output.png_compression);
+                    encoded->depth_png =
+                        encode_png16(depth_to_png_units(simulated.depth, 5000.0), options_.output.png_compression);
+                  }
+                  // The optional ground truth has no listing and no order: written here, in parallel.
+                  ScopedClock clock(&clocks.ground_truth);
+                  if (options_.output.clean_depth)
+                    writer.write_clean_depth(frame.sensor, frame.timestamp,
+                                             depth_to_png_units(simulated.clean_depth, 5000.0));
+                  if (options_.output.normals)
+                    writer.write_groundtruth_normals(frame.sensor, frame.timestamp, simulated.normal_cam);
+                  if (options_.output.ids)
+                    writer.write_groundtruth_ids(frame.sensor, frame.timestamp, simulated.triangle_id,
+                                                 simulated.material_id);
+                  return encoded;
+                }) &
+            tbb::make_filter<std::shared_ptr<EncodedFrame>, void>(
+                tbb::filter_mode::serial_in_order, [&](std::shared_ptr<EncodedFrame> encoded) {
+                  ScopedClock clock(&clocks.write);
+                  const FrameTime& frame = *encoded->frame;
+                  writer.write_encoded_frame(frame.sensor, frame.timestamp, encoded->rgb_png, encoded->depth_png);
+                  truth[frame.sensor].push_back({frame.timestamp, encoded->world_from_cam});
+                  progress.advance();
+                }));
   });
   progress.finish();
+  const std::int64_t rendered = now_ns();
   for (int sensor = 0; sensor < num_sensors; ++sensor) writer.write_groundtruth_trajectory(sensor, truth[sensor]);
   writer.write_groundtruth_file("rig_truth.json", rig_truth_json());
   writer.write_groundtruth_mesh(scene_.mesh);
   writer.commit();
+  if (times) {
+    const std::int64_t end = now_ns();
+    times->probe_s = double(probed - start) * 1e-9;
+    times->rays_s = seconds_of(clocks.render.rays_ns);
+    times->shading_s = seconds_of(clocks.render.shading_ns);
+    times->depth_noise_s = seconds_of(clocks.depth_noise);
+    times->colour_s = seconds_of(clocks.colour);
+    times->encode_s = seconds_of(clocks.encode);
+    times->ground_truth_s = seconds_of(clocks.ground_truth);
+    times->write_s = seconds_of(clocks.write);
+    times->finish_s = double(end - rendered) * 1e-9;
+    times->frame_threads_s = double(rendered - probed) * 1e-9 * arena.max_concurrency();
+    times->wall_s = double(end - start) * 1e-9;
+    times->frames = total;
+    times->pixels = total * std::size_t(rig_.intrinsics.width) * std::size_t(rig_.intrinsics.height);
+  }
   return total;
 }
 

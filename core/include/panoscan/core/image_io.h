@@ -15,6 +15,10 @@ namespace panoscan {
 void write_png(const std::filesystem::path& path, const ImageU8& image, int compression = 1);
 // 16-bit single-channel PNG (depth).
 void write_png16(const std::filesystem::path& path, const ImageU16& image, int compression = 1);
+// The bytes of the PNG file write_png / write_png16 write, encoded in memory: for writers that
+// encode frames in parallel and write them in order (the simulator's scan writer).
+std::string encode_png(const ImageU8& image, int compression = 1);
+std::string encode_png16(const ImageU16& image, int compression = 1);
 
 // Reads an 8-bit PNG, JPEG, BMP, TIFF, WebP or PNM image as RGB (3 channels), the format told by the
 // file's first bytes, not its name. Throws if the file is missing, of another format, or corrupt.

@@ -120,6 +120,10 @@ class ScanWriter {
   ~ScanWriter();
 
   void write_frame(int sensor, double timestamp, const ImageU8& rgb, const ImageU16& depth);
+  // write_frame for images already encoded (encode_png of the colour, encode_png16 of the depth,
+  // image_io.h), so that a caller can encode frames in parallel and write them in time order. The
+  // PNG headers are checked against the sensor's image size and sample format.
+  void write_encoded_frame(int sensor, double timestamp, const std::string& rgb_png, const std::string& depth_png);
   // A frame whose images exist as files already (an import): copied, or hard-linked, into place
   // under the names write_frame gives (the colour file keeps its extension). The caller checks
   // their contents (sizes, 8-bit colour, 16-bit depth); the same ordering rule as write_frame.

@@ -3,6 +3,8 @@
 // Thread-safe: render() may run concurrently.
 #pragma once
 
+#include <atomic>
+#include <cstdint>
 #include <memory>
 
 #include "panoscan/core/camera.h"
@@ -28,6 +30,13 @@ struct RenderRequest {
   bool normals = false;  // normal_cam: off by default, so views that do not need it skip the per-pixel cost
 };
 
+// Where render() / render_rows() spend their time, for the simulator's stage breakdown: thread
+// nanoseconds, added atomically because views render concurrently. Optional (a null pointer costs nothing).
+struct RenderTimes {
+  std::atomic<std::int64_t> rays_ns{0};     // Embree: setting up and intersecting the primary ray packets
+  std::atomic<std::int64_t> shading_ns{0};  // per hit: depth, ids, incidence, normals, texture, lights
+};
+
 class Renderer {
  public:
   explicit Renderer(const Scene& scene);  // keeps a reference to `scene`: it must outlive this
@@ -38,10 +47,10 @@ class Renderer {
   // Renders rows [row_begin, row_end) of the view into `out` (allocated by the caller via
   // allocate() with the same request); lets callers parallelise over rows.
   void render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics, int row_begin, int row_end,
-                   RenderedView& out, const RenderRequest& request = {}) const;
+                   RenderedView& out, const RenderRequest& request = {}, RenderTimes* times = nullptr) const;
   // Whole view, parallel over rows (oneTBB).
   RenderedView render(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics,
-                      const RenderRequest& request = {}) const;
+                      const RenderRequest& request = {}, RenderTimes* times = nullptr) const;
   static RenderedView allocate(const PinholeIntrinsics& intrinsics, const RenderRequest& request = {});
 
   // Noiseless equirectangular panorama seen from the origin of `world_from_pano` (its z axis is
@@ -54,9 +63,13 @@ class Renderer {
   std::size_t intersect_only(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics, int row_begin,
                              int row_end) const;
 
-  // The same with coherent packets of 8 rays (rtcIntersect8): Embree's faster path.
+  // The same with coherent packets of 8 rays (rtcIntersect8, 8 neighbouring pixels of a row):
+  // Embree's faster path, the speed report's reference.
   std::size_t intersect_only_packets(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics, int row_begin,
                                      int row_end) const;
+  // With packets of 16 (rtcIntersect16), as render_rows traces them.
+  std::size_t intersect_only_packets16(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics,
+                                       int row_begin, int row_end) const;
 
   // First hit along a ray from `origin` in direction `direction` (unit); distance or -1.
   double cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, int* triangle = nullptr) const;

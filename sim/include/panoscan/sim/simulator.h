@@ -32,6 +32,29 @@ struct SimulatedFrame {
   ImageI32 material_id;  // only with output.ids: the hit triangle's scene material, -1 = no hit or no materials
 };
 
+// Where a write_scan's time went, by stage. The per-frame stages are thread seconds summed over
+// the worker threads; frame_threads_s is the wall time of the frame loop times the threads, so
+// what the stages leave of it is idle or unmeasured (scheduling, allocation). probe_s and
+// finish_s are wall seconds of the steps before and after the frame loop. For the speed
+// benchmarks' counters and `panoscan sim`'s log.
+struct SimStageTimes {
+  double rays_s = 0;           // primary ray packets (Embree)
+  double shading_s = 0;        // hit attributes, texture sampling, lights
+  double depth_noise_s = 0;    // range limit of the clean depth and the depth noise model
+  double colour_s = 0;         // exposure, white balance, colour noise, material ids
+  double encode_s = 0;         // depth to PNG units, colour and depth PNG encoding (in memory)
+  double ground_truth_s = 0;   // optional per-frame ground truth files (clean depth PNG, normals and ids EXR)
+  double write_s = 0;          // writing the frames' PNG files, in time order (one thread at a time)
+  double frame_threads_s = 0;  // wall time of the frame loop x threads
+  double probe_s = 0;          // depth-coverage probe (12 frames per camera) before the frame loop
+  double finish_s = 0;         // trajectories, rig_truth.json, the mesh, the commit
+  double wall_s = 0;           // the whole write_scan
+  std::size_t frames = 0;
+  std::size_t pixels = 0;  // frames x width x height
+
+  std::string summary() const;  // one line for logs
+};
+
 class Simulator {
  public:
   // Validates the options and the position index; `scene` must outlive the simulator.
@@ -54,12 +77,17 @@ class Simulator {
   // of frames written. Uses options().threads threads.
   // Throws Error naming the position when the probe's depth coverage is below
   // options().output.min_depth_coverage (nothing is written then).
-  std::size_t write_scan(const std::filesystem::path& scan_dir, bool overwrite) const;
+  // `times` (optional) receives the stage breakdown. Frames are rendered and encoded in parallel
+  // and written in time order: the files do not depend on the thread count.
+  std::size_t write_scan(const std::filesystem::path& scan_dir, bool overwrite, SimStageTimes* times = nullptr) const;
 
   // Share of the pixels with depth in the sensor's range over 12 frames per camera spread over the turn.
   double probe_depth_coverage() const;
 
  private:
+  struct StageClocks;  // simulator.cpp
+  SimulatedFrame render_frame(const FrameTime& frame, StageClocks* clocks) const;
+
   const Scene& scene_;
   ScanPosition position_;
   SimOptions options_;
