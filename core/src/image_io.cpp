@@ -81,7 +81,8 @@ bool is_png(const fs::path& path) {
 
 }  // namespace
 
-// Encoded by png_encode.cpp (libdeflate); decoded by OpenCV.
+// Encoded by png_encode.cpp (libdeflate); decoded by png_decode.cpp (libdeflate) for the layouts
+// scans hold, by OpenCV for the others.
 void write_png(const fs::path& path, const ImageU8& image, int compression) {
   check_shape(path, image.width, image.height, image.channels, image.data.size());
   if (image.channels != 1 && image.channels != 3)
