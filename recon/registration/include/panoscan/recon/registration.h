@@ -83,7 +83,7 @@ void prepare_surface(RegistrationCloud& cloud, const Eigen::Vector3d& viewpoint,
 struct IcpOptions {
   IcpMethod method = IcpMethod::kGicpMeasured;
   double max_correspondence_m = 0.15;  // lambda_a (paper §6.1)
-  int max_iterations = 50;             // paper §6.3
+  int max_iterations = 50;             // paper §6.3; per coarse-to-fine level (below)
   double convergence_translation_m = 1e-6;
   double convergence_rotation_rad = 1e-7;
   // Also converged: the objective came back to its value of two steps before (within this
