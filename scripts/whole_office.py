@@ -17,11 +17,12 @@ import argparse
 import datetime
 import json
 import os
-import platform
 import shutil
 import subprocess
 import sys
 import time
+
+from speed_report import cpu_model  # the same machine line as the speed report
 
 POSITIONS = ["SO-1", "SO-3", "SO-2", "SO-4"]  # neighbours next to each other (Table 5's order)
 
@@ -34,17 +35,6 @@ def run(command, log):
     if result.returncode != 0:
         sys.exit(f"whole_office.py: {' '.join(command)} failed with exit {result.returncode}:\n{result.stdout[-2000:]}")
     return seconds
-
-
-def cpu_model():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def main():

@@ -105,17 +105,33 @@ TEST(PointCovariance, MatchesTheNumericJacobianOfTheBackProjection) {
 
 class EveryMethod : public ::testing::TestWithParam<IcpMethod> {};
 
-TEST_P(EveryMethod, RecoversAKnownTransformFromAPerturbedGuess) {
+// Two panoramas of the furnished room 1.06 m and 46 deg apart, noise sigma, and a guess 3.5 deg /
+// 8.4 cm off the truth.
+struct KnownPair {
+  Panorama target, source;
+  Rigid3d truth, initial;
+};
+KnownPair known_pair(double sigma) {
   const Scene scene = furnished_room();
   const Renderer renderer(scene);
   const Rigid3d world_from_target = make_rigid(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.2, -0.3, 1.2));
   const Rigid3d world_from_source =
       make_rigid(so3_exp(Eigen::Vector3d(0.01, -0.015, 0.8)), Eigen::Vector3d(1.0, 0.4, 1.15));
-  const Panorama target = make_panorama(renderer, world_from_target, 0.001, 0.001, 1);
-  const Panorama source = make_panorama(renderer, world_from_source, 0.001, 0.001, 2);
-  const Rigid3d truth = world_from_target.inverse() * world_from_source;
-  const Rigid3d initial =
-      make_rigid(so3_exp(Eigen::Vector3d(0.02, -0.03, 0.05)), Eigen::Vector3d(0.06, -0.05, 0.03)) * truth;
+  KnownPair pair{make_panorama(renderer, world_from_target, sigma, sigma, 1),
+                 make_panorama(renderer, world_from_source, sigma, sigma, 2), Rigid3d::Identity(),
+                 Rigid3d::Identity()};
+  pair.truth = world_from_target.inverse() * world_from_source;
+  pair.initial =
+      make_rigid(so3_exp(Eigen::Vector3d(0.02, -0.03, 0.05)), Eigen::Vector3d(0.06, -0.05, 0.03)) * pair.truth;
+  return pair;
+}
+
+TEST_P(EveryMethod, RecoversAKnownTransformFromAPerturbedGuess) {
+  const KnownPair pair = known_pair(0.001);
+  const Panorama& target = pair.target;
+  const Panorama& source = pair.source;
+  const Rigid3d& truth = pair.truth;
+  const Rigid3d& initial = pair.initial;
   IcpOptions options;
   options.method = GetParam();
   const IcpResult result = register_icp(source.cloud, target.cloud, initial, options);
@@ -186,16 +202,10 @@ TEST(Registration, CoarseToFineReachesTheMinimumOfTheFullCloud) {
   // The coarse levels only move the pose near the minimum; the finest level, on every point,
   // decides where it ends: the same pose as Gauss-Newton on all points from the start, to far
   // below the noise floor, in fewer full-cloud iterations.
-  const Scene scene = furnished_room();
-  const Renderer renderer(scene);
-  const Rigid3d world_from_target = make_rigid(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.2, -0.3, 1.2));
-  const Rigid3d world_from_source =
-      make_rigid(so3_exp(Eigen::Vector3d(0.01, -0.015, 0.8)), Eigen::Vector3d(1.0, 0.4, 1.15));
-  const Panorama target = make_panorama(renderer, world_from_target, 0.003, 0.003, 1);
-  const Panorama source = make_panorama(renderer, world_from_source, 0.003, 0.003, 2);
-  const Rigid3d truth = world_from_target.inverse() * world_from_source;
-  const Rigid3d initial =
-      make_rigid(so3_exp(Eigen::Vector3d(0.02, -0.03, 0.05)), Eigen::Vector3d(0.06, -0.05, 0.03)) * truth;
+  const KnownPair pair = known_pair(0.003);
+  const Panorama& target = pair.target;
+  const Panorama& source = pair.source;
+  const Rigid3d& initial = pair.initial;
   for (IcpMethod method : {IcpMethod::kGicp, IcpMethod::kGicpMeasured, IcpMethod::kPointToPlane}) {
     IcpOptions options;
     options.method = method;
