@@ -106,7 +106,14 @@ nlohmann::json icp_json(const IcpResult& icp, const IcpOptions& options) {
           {"inlier_fraction", icp.inlier_fraction},
           {"fitness", icp.fitness},
           {"fitness_distance_m", options.fitness_distance_m},
-          {"rmse_m", icp.rmse_m}};
+          {"rmse_m", icp.rmse_m},
+          {"coarse_levels", options.coarse_levels},
+          // Wall-clock seconds of the ICP's phases (IcpResult::timings).
+          {"seconds",
+           {{"setup", icp.timings.setup_s},
+            {"correspondences", icp.timings.correspondence_s},
+            {"linearisation", icp.timings.linearise_s},
+            {"solve", icp.timings.solve_s}}}};
 }
 
 void write_register_outputs(const ReconRegisterArguments& a, const std::string& matrix, const nlohmann::json& j,
