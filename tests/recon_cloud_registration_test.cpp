@@ -354,6 +354,16 @@ TEST(CloudRegistrationCli, WritesTheJsonAndTheMatrix) {
   EXPECT_EQ(j["clouds"]["source"]["format"], "pcd binary");
   EXPECT_EQ(j["clouds"]["source"]["viewpoint_from"], "VIEWPOINT");
   EXPECT_EQ(j["clouds"]["target"]["uncertainty_field"], "cov_xx..cov_zz");
+  // Where the ICP's time went: its phases, summing to no more than the whole command.
+  double phases = 0;
+  for (const char* phase : {"setup", "correspondences", "linearisation", "solve"}) {
+    ASSERT_TRUE(j["icp"]["seconds"].contains(phase)) << phase;
+    EXPECT_GE(j["icp"]["seconds"][phase].get<double>(), 0.0) << phase;
+    phases += j["icp"]["seconds"][phase].get<double>();
+  }
+  EXPECT_GT(phases, 0.0);
+  EXPECT_LE(phases, j["seconds"].get<double>());
+  EXPECT_EQ(j["icp"]["coarse_levels"], 2);
   const Rigid3d from_json = pose_from_json(j["target_from_source"], out, "target_from_source");
   const Errors e = errors_of(from_json, pair.target_from_source);
   EXPECT_LT(e.rotation_deg, kMaxRotationDeg);
