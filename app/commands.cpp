@@ -515,6 +515,7 @@ void run_tables(const TablesArguments& a) {
     options.threads = a.threads;
     options.seed = std::uint64_t(a.seed);
     options.only = a.only;
+    options.record_refusals = a.record_refusals;
     options.texture = texture;
     if (!a.scenes.empty()) options.scenes = a.scenes;
     tables::check_tables_options(options);  // every run is checked before the first starts

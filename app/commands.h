@@ -190,6 +190,7 @@ struct TablesArguments {
   std::vector<std::string> scenes;     // --scenes builtin | generated:N | FILE (default builtin)
   int threads = 0;
   std::vector<std::string> overrides;  // --set: scene.texture
+  bool record_refusals = false;        // a stage's refusal is the run's recorded outcome (the workflow's parts)
 };
 // Runs the table drivers (benchmarks/tables) and writes <out>/<noise>/<name>/<name>.{md,csv,json};
 // `tables merge RECORDS...` merges run records, `tables scan LABELS...` fills the scan cache.

@@ -200,6 +200,10 @@ int main(int argc, char** argv) {
                          "rooms measured: builtin, generated:N (the generator's rooms 1..N) or scene files "
                          "(repeatable; default builtin)");
   tables_cmd->add_option("--threads", tables_args.threads, "worker threads (0 = all cores)");
+  tables_cmd->add_flag("--record-refusals", tables_args.record_refusals,
+                       "when a stage refuses its result (e.g. tracking fails its self-check), write the refusal as "
+                       "the run's record (no cells) instead of stopping with exit 2; for one column per run (--only), "
+                       "as the workflow runs it");
   tables_cmd->add_option("--set", tables_args.overrides,
                          "the scanned rooms' texture density: --set scene.texture=icl|rich|plain (default icl)");
 

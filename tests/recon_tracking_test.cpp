@@ -391,7 +391,8 @@ TEST_F(TrackingTest, SelfCheckPassesACorrectTrajectoryAndCatchesCorruptedOnes) {
   const TrackingVerdict gap = verify_tracking(good, *scan_, *frontend_, sparse, {}, options);
   EXPECT_FALSE(gap.reliable);
   EXPECT_EQ(gap.first_failure().rfind("frames:", 0), 0u) << gap.first_failure();
-  EXPECT_THROW(require_reliable_tracking(TrackingResult{good.trajectory, {}, {}, {}, gap}, options, "scan"), Error);
+  // A Refusal (not any Error): what `tables --record-refusals` records as a run's outcome.
+  EXPECT_THROW(require_reliable_tracking(TrackingResult{good.trajectory, {}, {}, {}, gap}, options, "scan"), Refusal);
 }
 
 TEST_F(TrackingTest, BadInputGivesClearErrors) {

@@ -140,6 +140,39 @@ TEST(TablesMerge, RefusesRecordsThatMustNotBeMerged) {
   EXPECT_FALSE(fs::exists(tmp / "out" / "claims.md"));
 }
 
+TEST(TablesMerge, FailedRunsAreCountedBesideTheCellsNotAveragedIntoThem) {
+  TempDir tmp("merge-failures");
+  write_record(tmp / "s1", record(1, 1.0, 2.0));
+  write_record(tmp / "s2", record(2, 2.0, 3.0));
+  // Seed 3 refused (tables --record-refusals): no cells, one failure.
+  json refused = record(3, 0.0, 0.0);
+  refused["tables"] = json::array();
+  refused["failures"] = {{{"column", "SO-13"}, {"what", "refused"}, {"reason", "SO-1: tracking: not trustworthy"}}};
+  write_record(tmp / "s3", refused);
+  // Seed 4 measured the baseline only; Ours failed.
+  json partial = record(4, 5.0, 4.0);
+  partial["tables"][0]["values"]["Ours"].erase("SO-13");
+  partial["failures"] = {{{"column", "SO-13"}, {"what", "Ours failed"}, {"reason", "no convergence"}}};
+  write_record(tmp / "s4", partial);
+  merge_and_write({tmp.path()}, tmp / "out");
+  const std::string md = read_text(tmp / "out" / "handa" / "table5" / "table5.md");
+  EXPECT_NE(md.find("| Ours | 1.500 ± 6.353 (2) |"), std::string::npos) << md;  // seeds 1-2 only
+  EXPECT_NE(md.find("| SO-13 | refused | 3 | 1 of 4 | SO-1: tracking: not trustworthy |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| SO-13 | Ours failed | 4 | 1 of 4 | no convergence |"), std::string::npos) << md;
+  const json merged = json::parse(read_text(tmp / "out" / "handa" / "table5" / "table5.json"));
+  ASSERT_EQ(merged["failures"].size(), 2u);
+  EXPECT_EQ(merged["failures"][0]["runs"], 1);
+  EXPECT_EQ(merged["failures"][0]["of"], 4);
+  EXPECT_NE(read_text(tmp / "out" / "claims.md").find("Runs without a value: 2"), std::string::npos);
+  // A malformed failures entry names the record and the field.
+  json bad = record(5, 1.0, 2.0);
+  bad["failures"] = {{{"column", 3}}};
+  const fs::path bad_file = write_record(tmp / "bad", bad);
+  const std::string message = error_of([&] { merge_and_write({bad_file}, tmp / "out2"); });
+  EXPECT_NE(message.find("failures[]"), std::string::npos) << message;
+  EXPECT_NE(message.find(bad_file.string()), std::string::npos) << message;
+}
+
 TEST(TablesMerge, SeedListsParse) {
   EXPECT_EQ(parse_seed_list("3"), (std::vector<std::uint64_t>{3}));
   EXPECT_EQ(parse_seed_list("1-4"), (std::vector<std::uint64_t>{1, 2, 3, 4}));

@@ -10,4 +10,8 @@ Error make_error(const std::string& file, const std::string& field, const std::s
   return Error(message);
 }
 
+Refusal make_refusal(const std::string& file, const std::string& field, const std::string& what) {
+  return Refusal(make_error(file, field, what).what());
+}
+
 }  // namespace panoscan

@@ -128,6 +128,8 @@ struct Group {
   std::vector<MergedTable> tables;
   std::vector<Claim> claims;
   std::set<std::uint64_t> seeds;
+  // (column, what) -> seed -> reason: the runs whose stage failed or refused (TableRun::failures).
+  std::map<std::pair<std::string, std::string>, std::map<std::uint64_t, std::string>> failures;
 };
 
 void check_same(const Group& group, const Record& r, const std::string& field, const json& value,
@@ -195,6 +197,16 @@ void fill_group(Group& g) {
           cell[r->seed] = v;
           from[r->seed] = r->origin;
         }
+      }
+    }
+    if (r->content.contains("failures")) {
+      if (!r->content["failures"].is_array()) throw make_error(r->origin, "failures", "not an array");
+      for (const json& f : r->content["failures"]) {
+        if (!f.is_object() || !f.contains("column") || !f["column"].is_string() || !f.contains("what") ||
+            !f["what"].is_string())
+          throw make_error(r->origin, "failures[]", "needs the strings column and what");
+        g.failures[{f["column"].get<std::string>(), f["what"].get<std::string>()}][r->seed] =
+            f.value("reason", std::string());
       }
     }
     if (r->content.contains("claims") && r->content["claims"].is_array())
@@ -291,6 +303,7 @@ const char* kMethodNote =
 struct Written {
   fs::path dir;
   std::vector<ClaimResult> claims;
+  std::size_t failed_runs = 0;  // (column, what, seed) entries of Group::failures
 };
 
 // Writes one group's merged record into `dir` (<name>.md, <name>.csv, <name>_claims.csv, <name>.json).
@@ -298,6 +311,7 @@ Written write_group(const Group& g, const fs::path& dir) {
   const json& first = g.records.front()->content;
   const std::string seeds = seed_list_text(g.seeds);
   Written written{dir, evaluate_claims(g)};
+  for (const auto& entry : g.failures) written.failed_runs += entry.second.size();
   std::string md = fmt::format("# {} ({} noise, {} size, scene texture {}): {} seeds ({})\n\n", g.name, g.noise,
                                first["settings"]["size"].get<std::string>(),
                                first["settings"]["scene_texture"].get<std::string>(), g.seeds.size(), seeds);
@@ -349,6 +363,29 @@ Written write_group(const Group& g, const fs::path& dir) {
     }
     md += "\n";
     j["tables"].push_back(table);
+  }
+  // The runs that gave no value: a cell's n counts only the runs that measured it, so a method that
+  // fails on some seeds must be read together with how often it failed.
+  j["failures"] = json::array();
+  if (!g.failures.empty()) {
+    md += "Runs that gave no value (a stage failed or refused; not in the cells' n):\n\n"
+          "| column | what | seeds | runs | first reason |\n|---|---|---|---|---|\n";
+    for (const auto& [key, by_seed] : g.failures) {
+      std::set<std::uint64_t> seeds_failed;
+      json reasons = json::object();
+      for (const auto& [seed, reason] : by_seed) {
+        seeds_failed.insert(seed);
+        reasons[std::to_string(seed)] = reason;
+      }
+      md += fmt::format("| {} | {} | {} | {} of {} | {} |\n", key.first, key.second, seed_list_text(seeds_failed),
+                        by_seed.size(), g.seeds.size(), by_seed.begin()->second);
+      j["failures"].push_back({{"column", key.first},
+                               {"what", key.second},
+                               {"runs", by_seed.size()},
+                               {"of", g.seeds.size()},
+                               {"reasons", reasons}});
+    }
+    md += "\n";
   }
   std::string claims_csv = "claim,better,worse,column,n,holds,mean_difference,ci95_low,ci95_high,verdict\n";
   j["claims"] = json::array();
@@ -418,9 +455,12 @@ std::vector<fs::path> merge_and_write(const std::vector<fs::path>& inputs, const
   for (const Group& g : groups) {
     const Written w = write_group(g, out / g.noise / g.name);
     dirs.push_back(w.dir);
-    if (w.claims.empty()) continue;
-    claims += fmt::format("## {} ({} noise, seeds {})\n\n", g.name, g.noise, seed_list_text(g.seeds)) +
-              claims_markdown(w.claims, "") + "\n";
+    if (w.claims.empty() && w.failed_runs == 0) continue;
+    claims += fmt::format("## {} ({} noise, seeds {})\n\n", g.name, g.noise, seed_list_text(g.seeds));
+    if (!w.claims.empty()) claims += claims_markdown(w.claims, "") + "\n";
+    if (w.failed_runs > 0)
+      claims += fmt::format("Runs without a value: {} (a stage failed or refused; which, in {}/{}/{}.md).\n\n",
+                            w.failed_runs, g.noise, g.name, g.name);
   }
   claims += std::string("Notes:\n- ") + kMethodNote + "\n";
   write_file_atomic(out / "claims.md", claims);

@@ -117,6 +117,7 @@ void add_table4(const TablesOptions& options, bool tracked, TableRun& run) {
     if (!guess.success) {
       run.notes.push_back(
           fmt::format("{} ({} poses): the ORB guess failed ({}); no registration", pair, poses, guess.failure));
+      run.failures.push_back({pair, fmt::format("ORB guess failed ({} poses)", poses), guess.failure});
       continue;
     }
     // The clouds of each covariance model and variant: the same points (the filters read only the
@@ -177,6 +178,7 @@ void add_table4(const TablesOptions& options, bool tracked, TableRun& run) {
                                     : register_icp(s, t, guess.target_from_source, icp);
       } catch (const Error& e) {
         run.notes.push_back(fmt::format("{} {} ({} poses): failed: {}", pair, row.name, poses, e.what()));
+        run.failures.push_back({pair, fmt::format("{} failed ({} poses)", row.name, poses), e.what()});
         continue;
       }
       const double elapsed = seconds_since(start);

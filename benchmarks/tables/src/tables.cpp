@@ -179,7 +179,20 @@ TableRun run_and_write(const std::string& name, const TablesOptions& options) {
     scans_used.clear();
   }
   const auto start = std::chrono::steady_clock::now();
-  TableRun run = driver.run(options);
+  TableRun run;
+  try {
+    run = driver.run(options);
+  } catch (const Refusal& e) {
+    if (!options.record_refusals) throw;
+    // The refusal is the run's outcome (tables.h: record_refusals): no cells, one failure.
+    std::string columns;
+    for (const std::string& label : options.only.empty() ? scan_labels(options) : options.only)
+      columns += (columns.empty() ? "" : ",") + label;
+    run = TableRun{};
+    run.failures.push_back({columns, "refused", e.what()});
+    run.notes.push_back(fmt::format("{}: refused (the run records the refusal): {}", columns, e.what()));
+    log_warn(fmt::format("tables: {} {}: refused, recorded as the run's outcome: {}", name, columns, e.what()));
+  }
   run.name = name;
   const double seconds = seconds_since(start);
 
@@ -222,6 +235,7 @@ TableRun run_and_write(const std::string& name, const TablesOptions& options) {
     j["claims"].push_back({{"table", c.table}, {"better", c.better}, {"worse", c.worse}, {"statement", c.statement}});
   if (run.claims.empty()) j["claims"] = nlohmann::json::array();
   j["driver_settings"] = nlohmann::json::parse(run.settings_json);
+  j["tables"] = nlohmann::json::array();  // empty for a recorded refusal
   for (const auto& t : run.tables) {
     nlohmann::json table;
     table["title"] = t.title;
@@ -238,6 +252,9 @@ TableRun run_and_write(const std::string& name, const TablesOptions& options) {
     j["tables"].push_back(table);
   }
   j["notes"] = run.notes;
+  j["failures"] = nlohmann::json::array();
+  for (const ColumnFailure& f : run.failures)
+    j["failures"].push_back({{"column", f.column}, {"what", f.what}, {"reason", f.reason}});
   {
     std::lock_guard<std::mutex> guard(scans_used_mutex);
     j["scans_rendered_by"] = scans_used;  // cache folder -> source revision that rendered it

@@ -24,7 +24,7 @@ void require_reliable_tracking(const TrackingResult& result, const TrackingOptio
                                const std::string& scan_name) {
   if (result.verdict.reliable) return;
   const std::string why = "not trustworthy: " + result.verdict.first_failure();
-  if (!options.allow_unreliable) throw make_error(scan_name, "tracking", why);
+  if (!options.allow_unreliable) throw make_refusal(scan_name, "tracking", why);
   log_warn(scan_name + ": tracking " + why + " (kept: track.allow_unreliable)");
 }
 

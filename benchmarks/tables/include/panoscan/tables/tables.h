@@ -36,6 +36,11 @@ struct TablesOptions {
   // scan <prefix>-1 and pair <prefix>-12 of each, prefix GO<seed> or GL<seed>), or a scene file
   // (mesh + <stem>.positions.json: scan <stem>-1, pair <stem>-12).
   std::vector<std::string> scenes = {"builtin"};
+  // A stage's refusal (panoscan::Refusal: e.g. tracking that fails its self-check) ends the run as a
+  // record of the refusal (TableRun::failures, no cells) instead of an error, so that a multi-seed
+  // record counts it as an outcome. Meant for one column per run (--only), as the workflow runs it:
+  // the columns measured before the refusal are not kept.
+  bool record_refusals = false;
 };
 
 // What one size means. The scan and pair lists are the columns of the tables.
@@ -68,11 +73,20 @@ struct Claim {
   std::string statement;  // e.g. "the measured variance beats a constant sigma_z"
 };
 
+// A column (or a method in it) that gave no value in a run because a stage failed or refused:
+// recorded so that the merged cells' n and the claims are read against the runs that failed.
+struct ColumnFailure {
+  std::string column;  // e.g. "GO7-1", "GO1-12"
+  std::string what;    // e.g. "tracking refused", "ORB guess failed (ground-truth poses)"
+  std::string reason;  // the stage's one-line message
+};
+
 // One driver's result: its tables plus free-text notes (e.g. which paper ordering fails).
 struct TableRun {
   std::string name;                       // e.g. "table3"
   std::vector<eval::ResultTable> tables;  // the first is the main table
   std::vector<std::string> notes;
+  std::vector<ColumnFailure> failures;
   std::vector<Claim> claims;
   std::string settings_json = "{}";                                       // driver-specific settings, a JSON object
   const eval::ResultTable& table(const std::string& title_prefix) const;  // throws if absent
