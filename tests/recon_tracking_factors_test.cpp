@@ -110,6 +110,41 @@ void expect_jacobians_match_numeric(ceres::CostFunction* cost_raw, const std::ve
   }
 }
 
+// The observation factor's closed-form Jacobians (tracking_factors.h: ObservationJacobian) against
+// the auto-differentiated functor they replace: the same residuals and the same Jacobians in the
+// manifold's tangent space (the ambient ones may differ along q, which the manifold never moves).
+TEST(TrackingFactors, ObservationClosedFormEqualsItsAutoDiffReference) {
+  RandomStream rng(5, 0, 0, RandomPurpose::kGeneric);
+  const ceres::QuaternionManifold manifold;
+  for (int trial = 0; trial < 50; ++trial) {
+    Block q = random_quaternion(rng);
+    if (trial % 5 == 4)  // not quite unit, as after many manifold steps
+      for (double& c : q.values) c *= 1.0 + 1e-6 * rng.normal();
+    const Block t = random_vector(rng, 3, 1.0), y = random_vector(rng, 3, 3.0);
+    // Far and near, in front and (first iterations) behind the camera.
+    const double u = 320 + 200 * rng.normal(), v = 240 + 150 * rng.normal(), d = 0.5 + 4 * rng.uniform();
+    std::unique_ptr<ceres::CostFunction> closed(tf::ObservationCost::create(u, v, d, 525, 520, 319.5, 239.5, 1.3, 0.01));
+    std::unique_ptr<ceres::CostFunction> reference(
+        tf::ObservationCost::create_autodiff(u, v, d, 525, 520, 319.5, 239.5, 1.3, 0.01));
+    const double* parameters[3] = {q.values.data(), t.values.data(), y.values.data()};
+    double r_closed[3], r_reference[3];
+    double jc[3][12], jr[3][12];
+    double* j_closed[3] = {jc[0], jc[1], jc[2]};
+    double* j_reference[3] = {jr[0], jr[1], jr[2]};
+    ASSERT_TRUE(closed->Evaluate(parameters, r_closed, j_closed));
+    ASSERT_TRUE(reference->Evaluate(parameters, r_reference, j_reference));
+    for (int r = 0; r < 3; ++r) EXPECT_NEAR(r_closed[r], r_reference[r], 1e-9 * (1 + std::abs(r_reference[r])));
+    Eigen::Matrix<double, 4, 3, Eigen::RowMajor> plus;
+    manifold.PlusJacobian(q.values.data(), plus.data());
+    using Ambient = Eigen::Map<const Eigen::Matrix<double, 3, 4, Eigen::RowMajor>>;
+    const Eigen::Matrix3d tangent_closed = Ambient(jc[0]) * plus, tangent_reference = Ambient(jr[0]) * plus;
+    const double scale = 1 + tangent_reference.cwiseAbs().maxCoeff();
+    EXPECT_LE((tangent_closed - tangent_reference).cwiseAbs().maxCoeff(), 1e-9 * scale) << "trial " << trial;
+    for (int k = 1; k < 3; ++k)
+      for (int e = 0; e < 9; ++e) EXPECT_NEAR(jc[k][e], jr[k][e], 1e-9 * scale) << "block " << k;
+  }
+}
+
 TEST(TrackingFactors, EveryFactorsJacobianMatchesNumericDifferentiation) {
   RandomStream rng(11, 0, 0, RandomPurpose::kGeneric);
   for (int trial = 0; trial < 10; ++trial) {

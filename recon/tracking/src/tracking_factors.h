@@ -60,14 +60,99 @@ struct ObservationCost {
     return true;
   }
 
+  // The graph's factor: ObservationJacobian below (the same residual with closed-form Jacobians).
   static ceres::CostFunction* create(double u, double v, double d, double fx, double fy, double cx, double cy,
-                                     double sigma_px, double sigma_d) {
+                                     double sigma_px, double sigma_d);
+  // This functor auto-differentiated: the reference the closed form is tested against.
+  static ceres::CostFunction* create_autodiff(double u, double v, double d, double fx, double fy, double cx,
+                                              double cy, double sigma_px, double sigma_d) {
     return new ceres::AutoDiffCostFunction<ObservationCost, 3, 4, 3, 3>(
         new ObservationCost(u, v, d, fx, fy, cx, cy, sigma_px, sigma_d));
   }
 
   double u_, v_, d_, fx_, fy_, cx_, cy_, sigma_px_, sigma_d_;
 };
+
+// Eq. 1 with closed-form Jacobians. The observation factors are most of the graph's residual
+// blocks, and auto-differentiating them with 10-dimensional jets was the largest part of the
+// Jacobian evaluation (issue 20, tracking solve). The residual above is affine in the camera-frame
+// point: r = W X + c with X = R^T (y - t), R = R(q) (world_from_cam),
+//   W = [[-fx, 0, u - cx] / (d s_u), [0, -fy, v - cy] / (d s_v), [0, 0, -1] / s_d],  c = (0, 0, d / s_d),
+// so dr/dy = W R^T and dr/dt = -W R^T. For the rotation: Ceres' QuaternionManifold perturbs on the
+// left, q' = [cos|δ|, sin|δ| δ/|δ|] q, i.e. R' = Exp(2δ) R, hence X' = X + 2 R^T [y - t]x δ and the
+// tangent Jacobian is M = 2 W R^T [y - t]x. Ceres asks for the ambient 3x4 Jacobian J and forms
+// J P with P = PlusJacobian(q) (4x3, P^T P = |q|^2 I); J = M P^T / |q|^2 gives J P = M.
+class ObservationJacobian final : public ceres::SizedCostFunction<3, 4, 3, 3> {
+ public:
+  ObservationJacobian(double u, double v, double d, double fx, double fy, double cx, double cy, double sigma_px,
+                      double sigma_d)
+      : w00_(-fx / (d * sigma_px)),
+        w02_((u - cx) / (d * sigma_px)),
+        w11_(-fy / (d * sigma_px)),
+        w12_((v - cy) / (d * sigma_px)),
+        w22_(-1.0 / sigma_d),
+        c2_(d / sigma_d) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const double* q = parameters[0];
+    const double* t = parameters[1];
+    const double* y = parameters[2];
+    // R(q) of the normalised quaternion, as ceres::QuaternionRotatePoint uses it.
+    const double n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+    const double s = 2.0 / n2;
+    const double xx = q[1] * q[1], yy = q[2] * q[2], zz = q[3] * q[3];
+    const double wx = q[0] * q[1], wy = q[0] * q[2], wz = q[0] * q[3];
+    const double xy = q[1] * q[2], xz = q[1] * q[3], yz = q[2] * q[3];
+    double R[3][3] = {{1.0 - s * (yy + zz), s * (xy - wz), s * (xz + wy)},
+                      {s * (xy + wz), 1.0 - s * (xx + zz), s * (yz - wx)},
+                      {s * (xz - wy), s * (yz + wx), 1.0 - s * (xx + yy)}};
+    const double o[3] = {y[0] - t[0], y[1] - t[1], y[2] - t[2]};
+    double X[3];
+    for (int k = 0; k < 3; ++k) X[k] = R[0][k] * o[0] + R[1][k] * o[1] + R[2][k] * o[2];  // R^T o
+    residuals[0] = w00_ * X[0] + w02_ * X[2];
+    residuals[1] = w11_ * X[1] + w12_ * X[2];
+    residuals[2] = w22_ * X[2] + c2_;
+    if (!jacobians) return true;
+    // A = W R^T (row k of R^T is column k of R).
+    double A[3][3];
+    for (int c = 0; c < 3; ++c) {
+      A[0][c] = w00_ * R[c][0] + w02_ * R[c][2];
+      A[1][c] = w11_ * R[c][1] + w12_ * R[c][2];
+      A[2][c] = w22_ * R[c][2];
+    }
+    if (jacobians[2])
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) jacobians[2][3 * r + c] = A[r][c];
+    if (jacobians[1])
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) jacobians[1][3 * r + c] = -A[r][c];
+    if (jacobians[0]) {
+      // M = 2 A [o]x, [o]x = [[0, -o2, o1], [o2, 0, -o0], [-o1, o0, 0]]; divided by |q|^2 here
+      // because P^T P = |q|^2 I (the block is unit up to rounding).
+      double M[3][3];
+      for (int r = 0; r < 3; ++r) {
+        M[r][0] = s * (A[r][1] * o[2] - A[r][2] * o[1]);
+        M[r][1] = s * (A[r][2] * o[0] - A[r][0] * o[2]);
+        M[r][2] = s * (A[r][0] * o[1] - A[r][1] * o[0]);
+      }
+      // P^T (3x4) of QuaternionManifold::PlusJacobian at q = (w, x, y, z):
+      //   P = [[-x, -y, -z], [w, z, -y], [-z, w, x], [y, -x, w]].
+      const double P[4][3] = {
+          {-q[1], -q[2], -q[3]}, {q[0], q[3], -q[2]}, {-q[3], q[0], q[1]}, {q[2], -q[1], q[0]}};
+      for (int r = 0; r < 3; ++r)
+        for (int a = 0; a < 4; ++a) jacobians[0][4 * r + a] = M[r][0] * P[a][0] + M[r][1] * P[a][1] + M[r][2] * P[a][2];
+    }
+    return true;
+  }
+
+ private:
+  double w00_, w02_, w11_, w12_, w22_, c2_;
+};
+
+inline ceres::CostFunction* ObservationCost::create(double u, double v, double d, double fx, double fy, double cx,
+                                                    double cy, double sigma_px, double sigma_d) {
+  return new ObservationJacobian(u, v, d, fx, fy, cx, cy, sigma_px, sigma_d);
+}
 
 // Eq. 2: pose regularisation. E = T_ci^-1 * T_u * R(alpha_ci) * T_u^-1 * T_r * T_c, residual =
 // (translation(E) / sigma_t, rotation_vector(E) / sigma_r) (the linearisation of E into 6 numbers).
