@@ -22,6 +22,7 @@
 #include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/simulator.h"
 #include "test_util.h"
+#include "tracking_graph.h"
 
 namespace panoscan {
 namespace {
@@ -275,6 +276,45 @@ TEST_F(TrackingTest, DeterministicAndWritesOutputs) {
   const RigTrajectory reread = read_rig_trajectory(dir_->path() / "out", *scan_);
   EXPECT_TRUE(reread.world_from_axis.isApprox(a.trajectory.world_from_axis, 1e-6));
   EXPECT_TRUE(std::filesystem::exists(dir_->path() / "out" / "tracking_stats.json"));
+}
+
+// track.schur_ordering=landmarks: the Schur solvers eliminate exactly the landmarks (so that Ceres
+// uses its <3,3,3> eliminator) and every other block keeps a group of its own in the graph's
+// order; the solution is the one Ceres' automatic ordering reaches.
+TEST_F(TrackingTest, TheLandmarksFirstOrderingEliminatesTheLandmarksAndReachesTheSameSolution) {
+  namespace tg = tracking_graph;
+  TrackingOptions options = test_tracking_options();
+  options.threads = 1;
+  tg::TrackingState state = tg::initialise_tracking_state(*scan_, *frontend_, options, nullptr);
+  tg::FactorGraph graph;
+  tg::add_observation_factors(graph, state, *scan_, *frontend_, options);
+  tg::add_regularisation_factors(graph, state, options);
+  tg::add_shared_wobble_factors(graph, state, options);
+  tg::add_velocity_factors(graph, state, options);
+  tg::fix_gauge(graph, state, options);
+  ASSERT_TRUE(graph.schur_ordering);
+  const ceres::ParameterBlockOrdering& ordering = *graph.schur_ordering;
+  EXPECT_EQ(ordering.NumElements(), graph.problem->NumParameterBlocks());
+  EXPECT_EQ(ordering.GroupSize(0), int(state.landmarks.size()));
+  for (auto& landmark : state.landmarks) EXPECT_EQ(ordering.GroupId(landmark.data()), 0);
+  EXPECT_EQ(ordering.NumGroups(), 1 + graph.problem->NumParameterBlocks() - int(state.landmarks.size()));
+  // Frames in time order: the first node's rotation before the last node's.
+  const tg::FrameNode &first = state.nodes.front(), &last = state.nodes.back();
+  EXPECT_LT(ordering.GroupId(state.poses[first.s][first.f].q), ordering.GroupId(state.poses[last.s][last.f].q));
+
+  TrackingOptions automatic = options;
+  automatic.schur_ordering = "automatic";
+  const TrackingResult ours = track_with_frontend(*scan_, *frontend_, options);
+  const TrackingResult ceres_own = track_with_frontend(*scan_, *frontend_, automatic);
+  EXPECT_EQ(ours.stats.iterations, ceres_own.stats.iterations);
+  EXPECT_NEAR(ours.stats.final_cost, ceres_own.stats.final_cost, 1e-8 * ceres_own.stats.final_cost);
+  double largest_m = 0;
+  for (std::size_t s = 0; s < ours.trajectory.world_from_cam.size(); ++s)
+    for (std::size_t f = 0; f < ours.trajectory.world_from_cam[s].size(); ++f)
+      largest_m = std::max(largest_m, (ours.trajectory.world_from_cam[s][f].world_from_cam.translation() -
+                                       ceres_own.trajectory.world_from_cam[s][f].world_from_cam.translation())
+                                          .norm());
+  EXPECT_LT(largest_m, 1e-6);
 }
 
 TEST_F(TrackingTest, FramesWithoutFeaturesAreKeptWithTheRegularisingFactors) {

@@ -3,6 +3,8 @@ panoscan_add_test(recon_tracking_test
   SOURCES recon_tracking_test.cpp
   DEPS panoscan_recon_tracking panoscan_sim panoscan_scenes panoscan_eval nlohmann_json::nlohmann_json
   LABELS e2e)
+# The named steps of the graph (tracking_graph.h) are internal to the library.
+target_include_directories(recon_tracking_test PRIVATE ${CMAKE_SOURCE_DIR}/recon/tracking/src)
 # The factors on their own: Jacobians against numeric differentiation, residuals against their definitions.
 panoscan_add_test(recon_tracking_factors_test
   SOURCES recon_tracking_factors_test.cpp

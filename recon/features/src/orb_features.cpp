@@ -56,10 +56,6 @@ inline int hamming(const OrbDescriptor& a, const OrbDescriptor& b) {
 
 int hamming_distance(const OrbDescriptor& a, const OrbDescriptor& b) { return hamming(a, b); }
 
-namespace {
-
-}  // namespace
-
 // Debian builds for the x86-64 baseline, which has no POPCNT instruction: __builtin_popcountll
 // becomes a libgcc call that took 7% of a tracking run. A clone for CPUs with POPCNT is picked at
 // load time (GCC function multi-versioning); other CPUs run the baseline clone.

@@ -114,6 +114,7 @@ TrackingOptions tracking_options_from_config(Config& config) {
   o.linear_solver =
       config.get_string("track.linear_solver", o.linear_solver,
                         {"sparse_schur", "dense_schur", "iterative_schur", "sparse_normal_cholesky"});
+  o.schur_ordering = config.get_string("track.schur_ordering", o.schur_ordering, {"landmarks", "automatic"});
   o.threads = config.get_int("threads", 0, 0, 1024);
   FrontendOptions& f = o.frontend;
   f.orb_features = config.get_int("frontend.orb_features", f.orb_features, 50, 20000);

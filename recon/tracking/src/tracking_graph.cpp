@@ -327,6 +327,48 @@ void add_velocity_factors(FactorGraph& graph, TrackingState& st, const TrackingO
   }
 }
 
+namespace {
+
+// The landmarks eliminated first (group 0), then every other block. Ceres' automatic ordering takes
+// an independent set of the whole graph, which also picks up about half of the azimuth blocks (they
+// share no factor with a landmark), so the eliminated blocks have two sizes and Ceres falls back to
+// its dynamic-size Schur eliminator (56% of the solve's instructions on SO-1 640x480, n = 16); with
+// exactly the landmarks it uses the <3,3,3> specialisation (the solve: 18.9e9 -> 13.0e9
+// instructions, the same iterations and cost). Ceres orders the blocks of one group by address, so
+// each remaining block gets a group of its own, in the graph's order (frames in time order, then
+// T_c, T_u, T_r): the order does not depend on where the allocator put them. (One group for all of
+// them lets CAMD choose the order, 12.2e9, but from the blocks' addresses.)
+std::shared_ptr<ceres::ParameterBlockOrdering> landmarks_first_ordering(TrackingState& st, ceres::Problem& problem) {
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  int group = 1;
+  auto add = [&](double* block) {
+    if (!problem.HasParameterBlock(block) || ordering->IsMember(block)) return;
+    ordering->AddElementToGroup(block, group++);
+  };
+  for (auto& landmark : st.landmarks)
+    if (problem.HasParameterBlock(landmark.data())) ordering->AddElementToGroup(landmark.data(), 0);
+  if (ordering->NumElements() == 0) return nullptr;  // nothing to eliminate: Ceres' own choice
+  for (const FrameNode& node : st.nodes) {
+    add(st.poses[node.s][node.f].q);
+    add(st.poses[node.s][node.f].t);
+    add(&st.alpha[node.s][node.f]);
+  }
+  for (PoseBlock& block : st.extrinsics) {
+    add(block.q);
+    add(block.t);
+  }
+  for (PoseBlock* block : {&st.identity, &st.axis, &st.rig}) {
+    add(block->q);
+    add(block->t);
+  }
+  std::vector<double*> all;  // anything else, in the problem's (insertion) order
+  problem.GetParameterBlocks(&all);
+  for (double* block : all) add(block);
+  return ordering;
+}
+
+}  // namespace
+
 void fix_gauge(FactorGraph& graph, TrackingState& st, const TrackingOptions& options) {
   ceres::Problem& problem = *graph.problem;
   for (int s = 0; s < st.sensor_count; ++s) {
@@ -362,6 +404,7 @@ void fix_gauge(FactorGraph& graph, TrackingState& st, const TrackingOptions& opt
     problem.SetParameterBlockConstant(&st.alpha[st.ref][0]);
   }
   // A frame of an active camera outside every factor (ba-only without observations) keeps its start.
+  if (options.schur_ordering == "landmarks") graph.schur_ordering = landmarks_first_ordering(st, problem);
 }
 
 ceres::Solver::Summary solve_tracking_graph(FactorGraph& graph, const TrackingOptions& options,
@@ -381,12 +424,10 @@ ceres::Solver::Summary solve_tracking_graph(FactorGraph& graph, const TrackingOp
       options.threads > 0 ? options.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.logging_type = ceres::SILENT;
-  // No explicit ParameterBlockOrdering. Ceres orders the blocks within a group by address, so a
-  // reproducible user ordering needs a group per non-landmark block; measured at 640x480, n = 16
-  // (recon/tracking/README.md, "Solver speed"): that gives the Schur eliminator its <3,3,3>
-  // specialisation but costs a constrained AMD of the whole problem (about 0.2 s) and was not
-  // faster per iteration. The automatic ordering finds the landmarks as the eliminated set and is
-  // reproducible.
+  const bool schur = solver_options.linear_solver_type != ceres::SPARSE_NORMAL_CHOLESKY;
+  if (schur && graph.schur_ordering) solver_options.linear_solver_ordering = graph.schur_ordering;
+  // The elimination order: landmarks first (fix_gauge, landmarks_first_ordering) unless
+  // track.schur_ordering=automatic (recon/tracking/README.md, "Solver speed").
   IterationLogger iteration_logger(origin);
   if (options.log_iterations) solver_options.callbacks.push_back(&iteration_logger);
   ceres::Solver::Summary summary;

@@ -70,6 +70,8 @@ struct FactorGraph {
   std::unique_ptr<ceres::HuberLoss> huber;
   std::array<std::vector<ceres::ResidualBlockId>, kFactorKinds> blocks;
   int shared_wobble_links = 0;
+  // The Schur solvers' elimination order (fix_gauge, track.schur_ordering=landmarks); null = Ceres' own.
+  std::shared_ptr<ceres::ParameterBlockOrdering> schur_ordering;
 
   // Ceres' 1/2 sum of squares of each kind of factor (Huber applied).
   std::array<double, kFactorKinds> term_costs() const;

@@ -128,6 +128,10 @@ struct TrackingOptions {
   bool log_iterations = false;                 // track.log_iterations: one log line per LM iteration (cost, times)
   // track.linear_solver: sparse_schur | dense_schur | iterative_schur | sparse_normal_cholesky
   std::string linear_solver = "sparse_schur";
+  // track.schur_ordering: which blocks the Schur solvers eliminate. "landmarks": exactly the
+  // landmarks, the other blocks in the graph's order (frames in time order, then T_c, T_u, T_r);
+  // "automatic": Ceres' own independent set (recon/tracking/README.md, "Solver speed").
+  std::string schur_ordering = "landmarks";
   int threads = 0;                             // threads (0 = all cores)
   FrontendOptions frontend;                    // frontend.* keys
   TrackingVerifyOptions verify;                // track.verify.* keys
