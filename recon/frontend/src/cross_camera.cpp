@@ -150,8 +150,13 @@ void prepare_sampler(const Anchor& anchor, const ImageF32& gray_b, PatchSampler*
 // run of b's row, so the loop over dx vectorises (shift by shift, as before, the search was 17% of
 // a tracking run's instructions). Each shift still sums its patch pixels in the same order, so the
 // scores are the same bits as the shift-by-shift loop gave.
+// Per-shift sums of correlation_surface, kept by the caller across anchors (no allocation per anchor).
+struct CorrelationSums {
+  std::vector<double> sums, squares, cross;
+};
+
 int correlation_surface(const Anchor& anchor, const PatchSampler& sampler, const ImageF32& gray_b, int radius,
-                        std::vector<double>* surface) {
+                        std::vector<double>* surface, CorrelationSums* scratch) {
   const int side = 2 * radius + 1;
   surface->assign(std::size_t(side) * side, -2.0);
   // The patch stays inside the crop: a test that separates into x and y, each true on one interval.
@@ -163,7 +168,13 @@ int correlation_surface(const Anchor& anchor, const PatchSampler& sampler, const
   }
   if (dx_lo > dx_hi || dy_lo > dy_hi) return -1;
   const int nx = dx_hi - dx_lo + 1, ny = dy_hi - dy_lo + 1;
-  std::vector<double> sums(std::size_t(nx) * ny, 0.0), squares(sums.size(), 0.0), cross(sums.size(), 0.0);
+  const std::size_t cells = std::size_t(nx) * ny;
+  scratch->sums.assign(cells, 0.0);
+  scratch->squares.assign(cells, 0.0);
+  scratch->cross.assign(cells, 0.0);
+  std::vector<double>& sums = scratch->sums;
+  std::vector<double>& squares = scratch->squares;
+  std::vector<double>& cross = scratch->cross;
   const std::size_t n = anchor.templ.size();
   const std::ptrdiff_t stride = std::ptrdiff_t(gray_b.width) * gray_b.channels;
   const float* image = gray_b.row(0);
@@ -384,12 +395,13 @@ Eigen::Matrix3d estimate_band_correction(const Relation& relation, const CameraC
     const BandCrop& crop_b = *crops_b[k];
     Anchor anchor;
     PatchSampler sampler;
+    CorrelationSums sums;
     std::vector<double> surface(std::size_t(side) * side);
     for (const Pixel& corner : crop_a.corners) {
       if (!make_template(crop_a, corner, shape, options, &anchor)) continue;
       if (!warp_anchor(relation, b_from_a, scan, crop_b, shape, &anchor)) continue;
       prepare_sampler(anchor, crop_b.gray, &sampler);
-      const int best = correlation_surface(anchor, sampler, crop_b.gray, radius, &surface);
+      const int best = correlation_surface(anchor, sampler, crop_b.gray, radius, &surface, &sums);
       if (best < 0) continue;
       const int bx = best % side, by = best / side;
       if (surface[best] < options.band_min_ncc || !is_distinct_peak(surface, side, best, options.band_peak_margin))
@@ -509,6 +521,8 @@ BandPairResult match_band_pair(const Relation& relation, const Rigid3d& b_from_a
   std::vector<Aligned> aligned;
   Anchor anchor;
   PatchSampler sampler;
+  CorrelationSums sums;
+  std::vector<double> surface;
   for (const Pixel& corner : crop_a.corners) {
     const int cell = (relation.along_x ? corner.x : corner.y) / cell_size;
     if (cell_used[cell]) continue;
@@ -518,8 +532,7 @@ BandPairResult match_band_pair(const Relation& relation, const Rigid3d& b_from_a
     // Every shift of the window that keeps the patch inside b; the peak's four neighbours must be
     // scored too (for the sub-pixel fit), so a peak on the rim of b or of the window is refused.
     const int side = 2 * r + 1;
-    std::vector<double> surface;
-    const int best = correlation_surface(anchor, sampler, crop_b.gray, r, &surface);
+    const int best = correlation_surface(anchor, sampler, crop_b.gray, r, &surface, &sums);
     if (best < 0) continue;
     ++result.anchors;
     const int bx = best % side, by = best / side;
