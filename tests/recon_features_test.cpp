@@ -1,6 +1,7 @@
 // The shared ORB module (recon/features): the matching rule every user gets, and detection.
 #include <cstdint>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -51,6 +52,41 @@ TEST(OrbMatching, RatioTestAndOneAPerB) {
   OrbMatchOptions loose;
   loose.max_hamming = 256;
   EXPECT_EQ(match_orb({a[4]}, {b[4]}, loose).size(), 1u);
+}
+
+TEST(OrbMatching, AmongCandidatesAppliesTheSameRuleWithinEachList) {
+  std::mt19937 rng(5);
+  std::vector<OrbDescriptor> a, b;
+  for (int i = 0; i < 40; ++i) b.push_back(random_descriptor(rng));
+  for (int i = 0; i < 40; ++i) a.push_back(flipped(b[std::size_t(i)], 3 + i % 7));
+  // Every b as every a's candidate: the brute-force matcher's result, order included.
+  std::vector<int> offsets{0}, all;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    for (int j = 0; j < int(b.size()); ++j) all.push_back(j);
+    offsets.push_back(int(all.size()));
+  }
+  EXPECT_EQ(match_orb_among(a, b, offsets, all, OrbMatchOptions{}), match_orb(a, b, OrbMatchOptions{}));
+
+  // Windows: a0's list lacks its twin b0 (no match: the others are far); a1 sees b1 and a near
+  // copy of it (the ratio test fails within the list); a2 and a3 both see only b2 (the closer one, a2, keeps it);
+  // a4's list is empty.
+  OrbDescriptor near_b1 = b[1];
+  near_b1[10] ^= 0x08;  // 5 bits from a1 against b1's 4: 4 < 0.8 x 5 fails
+  b.push_back(near_b1);
+  const int copy_of_b1 = int(b.size()) - 1;
+  std::vector<std::vector<int>> lists = {{5, 6}, {1, copy_of_b1}, {2}, {2}, {}};
+  a[3] = flipped(b[2], 9);
+  std::vector<int> window_offsets{0}, windows;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (i < lists.size()) windows.insert(windows.end(), lists[i].begin(), lists[i].end());
+    window_offsets.push_back(int(windows.size()));
+  }
+  std::vector<OrbDescriptor> first_five(a.begin(), a.begin() + 5);
+  window_offsets.resize(6);
+  const auto matches = match_orb_among(first_five, b, window_offsets, windows, OrbMatchOptions{});
+  ASSERT_EQ(matches.size(), 1u);
+  EXPECT_EQ(matches[0], std::make_pair(2, 2));
+  EXPECT_THROW(match_orb_among(a, b, {0, 0}, {}, OrbMatchOptions{}), std::invalid_argument);
 }
 
 TEST(OrbDetection, KeypointsKeepTheirDistanceFromTheBorder) {

@@ -7,6 +7,7 @@
 #include <Eigen/SVD>
 
 #include <algorithm>
+#include <array>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -315,6 +316,61 @@ TEST_F(TrackingTest, TheLandmarksFirstOrderingEliminatesTheLandmarksAndReachesTh
                                        ceres_own.trajectory.world_from_cam[s][f].world_from_cam.translation())
                                           .norm());
   EXPECT_LT(largest_m, 1e-6);
+}
+
+// frontend.guided_matching: same-camera and loop pairs matched by projection compare each keypoint with
+// the few near its predicted position instead of all of them; they must verify the pairs brute
+// force verifies, with the same transforms, and track as well.
+TEST_F(TrackingTest, MatchingByProjectionVerifiesThePairsBruteForceVerifies) {
+  FrontendOptions brute_options = test_tracking_options().frontend;
+  ASSERT_TRUE(brute_options.guided_matching);
+  brute_options.guided_matching = false;
+  const FrontendResult brute = run_frontend(*scan_, brute_options);
+  EXPECT_EQ(brute.guided_pairs, 0);
+  // Most same-camera pairs are guided (the rest: frames of plain wall with too few keypoints for a
+  // sample, matched brute force).
+  int same_camera_tasks = 0;  // and loop pairs
+  for (const auto& camera : scan_->frames) {
+    for (int f = 1; f < int(camera.size()); ++f) same_camera_tasks += std::min(f, brute_options.same_camera_window);
+    if (int(camera.size()) > 4 * brute_options.loop_frames) same_camera_tasks += brute_options.loop_frames * brute_options.loop_frames;
+  }
+  // (Pairs with a frame of fewer than min_inliers keypoints are neither: they are not matched.)
+  EXPECT_LE(frontend_->guided_pairs + frontend_->guided_fallbacks, same_camera_tasks);
+  EXPECT_GT(frontend_->guided_pairs, (frontend_->guided_pairs + frontend_->guided_fallbacks) / 2);
+  std::printf("same-camera and loop pairs: %d guided, %d brute force; accepted %d + %d (guided) vs %d + %d\n",
+              frontend_->guided_pairs, frontend_->guided_fallbacks, frontend_->same_camera_pairs, frontend_->loop_pairs,
+              brute.same_camera_pairs, brute.loop_pairs);
+  EXPECT_GE(frontend_->same_camera_pairs, brute.same_camera_pairs - std::max(2, brute.same_camera_pairs / 50));
+  EXPECT_GE(frontend_->loop_pairs, brute.loop_pairs * 9 / 10);
+  EXPECT_GT(frontend_->loop_pairs, 0);
+  // Against the true relative poses: guided matching keeps the pairs' accuracy (the same or fewer
+  // wrong pairs, the same typical error).
+  auto pair_errors = [&](const FrontendResult& result) {
+    std::vector<double> errors_deg;
+    int wrong = 0;
+    for (const FramePairMatch& m : result.pairs) {
+      if (m.kind != FramePairMatch::Kind::kSameCamera) continue;
+      const Rigid3d truth = truth_->world_from_cam[m.sensor_a][m.frame_a].world_from_cam.inverse() *
+                            truth_->world_from_cam[m.sensor_b][m.frame_b].world_from_cam;
+      const Rigid3d difference = truth.inverse() * m.a_from_b;
+      const double deg = rad2deg(rotation_angle(difference.linear())), mm = 1e3 * difference.translation().norm();
+      errors_deg.push_back(deg);
+      if (deg > 1.0 || mm > 30.0) ++wrong;
+    }
+    std::sort(errors_deg.begin(), errors_deg.end());
+    return std::make_pair(wrong, errors_deg.empty() ? 0.0 : errors_deg[errors_deg.size() / 2]);
+  };
+  const auto [guided_wrong, guided_median_deg] = pair_errors(*frontend_);
+  const auto [brute_wrong, brute_median_deg] = pair_errors(brute);
+  std::printf("pairs off the truth by > 1 deg or 30 mm: %d guided, %d brute force; median %.3f vs %.3f deg\n",
+              guided_wrong, brute_wrong, guided_median_deg, brute_median_deg);
+  EXPECT_LE(guided_wrong, brute_wrong);
+  EXPECT_LT(guided_median_deg, 1.2 * brute_median_deg + 0.01);
+  // And the tracking is as good (the fixture's front end is the guided one).
+  const Figures guided = run(test_tracking_options(), "full");
+  TrackingResult brute_result = track_with_frontend(*scan_, brute, test_tracking_options());
+  const Figures brute_figures = evaluate(brute_result, "brute-force matching");
+  EXPECT_LT(guided.ate_m, 1.25 * brute_figures.ate_m + 0.5e-3);
 }
 
 TEST_F(TrackingTest, FramesWithoutFeaturesAreKeptWithTheRegularisingFactors) {

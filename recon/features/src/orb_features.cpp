@@ -3,6 +3,7 @@
 
 #include <cstring>
 #include <numeric>
+#include <stdexcept>
 
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
@@ -52,6 +53,34 @@ inline int hamming(const OrbDescriptor& a, const OrbDescriptor& b) {
   return distance;
 }
 
+// The rule every matcher applies (orb_features.h): a's nearest candidate under the distance limit
+// and the ratio test, then each b keeps the closest of the a's that chose it (the first on a tie).
+// Slots are positions in the caller's lists of a and b.
+class OneAPerB {
+ public:
+  explicit OneAPerB(std::size_t b_slots) : best_a_of_b_(b_slots, -1), best_distance_of_b_(b_slots, 1 << 20) {}
+
+  void offer(int a_slot, int b_slot, int d1, int d2, const OrbMatchOptions& options) {
+    if (b_slot < 0 || d1 > options.max_hamming || !(d1 < options.ratio * d2)) return;
+    candidates_.push_back({a_slot, b_slot});
+    if (d1 < best_distance_of_b_[std::size_t(b_slot)]) {
+      best_distance_of_b_[std::size_t(b_slot)] = d1;
+      best_a_of_b_[std::size_t(b_slot)] = a_slot;
+    }
+  }
+  // (a slot, b slot) in the order offered.
+  std::vector<std::pair<int, int>> resolve() const {
+    std::vector<std::pair<int, int>> kept;
+    for (const auto& [i, j] : candidates_)
+      if (best_a_of_b_[std::size_t(j)] == i) kept.push_back({i, j});
+    return kept;
+  }
+
+ private:
+  std::vector<int> best_a_of_b_, best_distance_of_b_;
+  std::vector<std::pair<int, int>> candidates_;
+};
+
 }  // namespace
 
 int hamming_distance(const OrbDescriptor& a, const OrbDescriptor& b) { return hamming(a, b); }
@@ -60,16 +89,15 @@ int hamming_distance(const OrbDescriptor& a, const OrbDescriptor& b) { return ha
 // becomes a libgcc call that took 7% of a tracking run. A clone for CPUs with POPCNT is picked at
 // load time (GCC function multi-versioning); other CPUs run the baseline clone.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("popcnt", "default")))
+#define PANOSCAN_POPCNT_CLONES __attribute__((target_clones("popcnt", "default")))
+#else
+#define PANOSCAN_POPCNT_CLONES
 #endif
-std::vector<std::pair<int, int>>
+
+PANOSCAN_POPCNT_CLONES std::vector<std::pair<int, int>>
 match_orb(const std::vector<OrbDescriptor>& a, const std::vector<int>& subset_a, const std::vector<OrbDescriptor>& b,
           const std::vector<int>& subset_b, const OrbMatchOptions& options) {
-  // Each a's nearest b under the ratio test and the distance limit; each b then keeps the closest
-  // of the a's that chose it (the first on a tie).
-  std::vector<int> best_a_of_b(subset_b.size(), -1), best_distance_of_b(subset_b.size(), 1 << 20);
-  std::vector<std::pair<int, int>> candidates;  // (position in subset_a, position in subset_b)
-  std::vector<int> candidate_distance;
+  OneAPerB rule(subset_b.size());
   for (std::size_t i = 0; i < subset_a.size(); ++i) {
     const OrbDescriptor& da = a[std::size_t(subset_a[i])];
     int best = -1, d1 = 1 << 20, d2 = 1 << 20;
@@ -81,18 +109,34 @@ match_orb(const std::vector<OrbDescriptor>& a, const std::vector<int>& subset_a,
         d2 = d;
       }
     }
-    if (best < 0 || d1 > options.max_hamming || !(d1 < options.ratio * d2)) continue;
-    candidates.push_back({int(i), best});
-    candidate_distance.push_back(d1);
-    if (d1 < best_distance_of_b[std::size_t(best)]) {
-      best_distance_of_b[std::size_t(best)] = d1;
-      best_a_of_b[std::size_t(best)] = int(i);
-    }
+    rule.offer(int(i), best, d1, d2, options);
   }
   std::vector<std::pair<int, int>> matches;
-  for (const auto& [i, j] : candidates)
-    if (best_a_of_b[std::size_t(j)] == i) matches.push_back({subset_a[std::size_t(i)], subset_b[std::size_t(j)]});
+  for (const auto& [i, j] : rule.resolve()) matches.push_back({subset_a[std::size_t(i)], subset_b[std::size_t(j)]});
   return matches;
+}
+
+PANOSCAN_POPCNT_CLONES std::vector<std::pair<int, int>>
+match_orb_among(const std::vector<OrbDescriptor>& a, const std::vector<OrbDescriptor>& b,
+                const std::vector<int>& candidate_offsets, const std::vector<int>& candidates,
+                const OrbMatchOptions& options) {
+  if (candidate_offsets.size() != a.size() + 1)
+    throw std::invalid_argument("match_orb_among: candidate_offsets needs one entry per descriptor of a, plus one");
+  OneAPerB rule(b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    int best = -1, d1 = 1 << 20, d2 = 1 << 20;
+    for (int k = candidate_offsets[i]; k < candidate_offsets[i + 1]; ++k) {
+      const int j = candidates[std::size_t(k)];
+      const int d = hamming(a[i], b[std::size_t(j)]);
+      if (d < d1) {
+        d2 = d1, d1 = d, best = j;
+      } else if (d < d2) {
+        d2 = d;
+      }
+    }
+    rule.offer(int(i), best, d1, d2, options);
+  }
+  return rule.resolve();
 }
 
 std::vector<std::pair<int, int>> match_orb(const std::vector<OrbDescriptor>& a, const std::vector<OrbDescriptor>& b,

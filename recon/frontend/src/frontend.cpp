@@ -31,6 +31,8 @@ void FrontendOptions::check(const std::string& origin) const {
   require(max_hamming > 0 && max_hamming <= 256, "max_hamming", "must be in [1, 256]");
   require(ratio > 0.0 && ratio <= 1.0, "ratio", "must be in (0, 1]");
   require(same_camera_window >= 1, "same_camera_window", "must be >= 1");
+  require(guide_keypoints >= 3, "guide_keypoints", "must be >= 3");
+  require(guided_radius_px > 0.0, "guided_radius_px", "must be > 0");
   require(loop_frames >= 0, "loop_frames", "must be >= 0");
   require(ransac_iterations >= 1, "ransac_iterations", "must be >= 1");
   require(ransac_sigmas > 0.0, "ransac_sigmas", "must be > 0");
@@ -96,6 +98,7 @@ enum class CrossStage { kNone, kBand, kMatches, kRansac, kAccepted };
 
 struct PairOutcome {
   bool accepted = false;
+  bool guided = false, guided_fallback = false;  // same-camera and loop pairs: matched by projection / sample failed
   CrossStage cross_stage = CrossStage::kNone;
   int band_keypoints_a = 0, band_keypoints_b = 0, matches = 0, inliers = 0;
   FramePairMatch match;
@@ -108,6 +111,107 @@ double point_sigma(const Keypoint& k, const PinholeIntrinsics& intrinsics, const
   const double sigma_px = std::pow(o.orb_scale_factor, k.octave);
   const double lateral = sigma_px * k.depth / intrinsics.fx;
   return std::sqrt(sigma_z * sigma_z + 2.0 * lateral * lateral);
+}
+
+// The back-projected matched keypoints of a and b and each pair's RANSAC inlier threshold (its
+// 3D difference's std, from the depth noise and ORB's localisation, times ransac_sigmas).
+void matched_points(const FrameFeatures& a, const FrameFeatures& b, const PinholeIntrinsics& in_a,
+                    const PinholeIntrinsics& in_b, const FrontendOptions& options,
+                    const std::vector<std::pair<int, int>>& matches, std::vector<Eigen::Vector3d>* pa,
+                    std::vector<Eigen::Vector3d>* pb, std::vector<double>* thresholds) {
+  for (const auto& [i, j] : matches) {
+    const Keypoint& ka = a.keypoints[std::size_t(i)];
+    const Keypoint& kb = b.keypoints[std::size_t(j)];
+    pa->push_back(in_a.backproject(ka.u, ka.v, ka.depth));
+    pb->push_back(in_b.backproject(kb.u, kb.v, kb.depth));
+    const double sa = point_sigma(ka, in_a, options), sb = point_sigma(kb, in_b, options);
+    thresholds->push_back(std::max(options.ransac_min_threshold_m, options.ransac_sigmas * std::hypot(sa, sb)));
+  }
+}
+
+// Matching by projection (ORB-SLAM's "search by projection", Mur-Artal et al. 2015), for
+// same-camera and loop pairs: brute force compares every keypoint of a with every one of b, ~10^6
+// Hamming distances per pair, a fifth of the front end's instructions. Both frames of such a pair
+// see most of one view (consecutive frames; the start and the end of the turn), so
+// guide_keypoints of a, spread over its list (ORB orders it by pyramid level, then response),
+// matched against all of b and verified by the same RANSAC, predict a_from_b; each keypoint of a,
+// moved by it with its own depth, is then compared only with b's keypoints within the search
+// radius of where it lands (the same ratio test and one-a-per-b rule, among those). The prediction
+// is only a search window: the pair's transform is still RANSAC's over all the guided matches.
+// Returns false (the caller matches brute force) when a has too few keypoints for a sample to save
+// work or the sample does not verify (a frame of plain wall).
+bool match_by_projection(const FrameFeatures& a, const FrameFeatures& b, const PinholeIntrinsics& in_a,
+                         const PinholeIntrinsics& in_b, const FrontendOptions& options, std::int64_t key,
+                         std::vector<std::pair<int, int>>* matches) {
+  const int count_a = int(a.keypoints.size()), count_b = int(b.keypoints.size());
+  // The sample scales with the image area, as the keypoints do (extract_features).
+  const double area_scale = double(in_a.width) * in_a.height / (640.0 * 480.0);
+  const int sample_size = std::max(5 * options.min_inliers, int(std::lround(options.guide_keypoints * area_scale)));
+  if (count_a < 2 * sample_size || count_b < options.min_inliers) return false;
+  std::vector<int> sample(static_cast<std::size_t>(sample_size)), all_b(static_cast<std::size_t>(count_b));
+  for (int k = 0; k < sample_size; ++k) sample[std::size_t(k)] = int(std::int64_t(k) * count_a / sample_size);
+  std::iota(all_b.begin(), all_b.end(), 0);
+  const auto sample_matches =
+      match_orb(a.descriptors, sample, b.descriptors, all_b, {options.max_hamming, options.ratio});
+  if (int(sample_matches.size()) < options.min_inliers) return false;
+  std::vector<Eigen::Vector3d> pa, pb;
+  std::vector<double> thresholds;
+  matched_points(a, b, in_a, in_b, options, sample_matches, &pa, &pb, &thresholds);
+  RigidRansacResult predicted;
+  // Its own random stream (negative keys are not used by the pairs' RANSAC).
+  // Half the pair's iterations: the sample's matches are mostly right (one draw in two of three
+  // inliers at 80% inliers; 100 draws miss all-inlier samples with probability 1e-6 at 50%).
+  if (!rigid_ransac(pa, pb, thresholds, std::max(1, options.ransac_iterations / 2), options.min_inliers, options.seed,
+                    -1 - key,
+                    &predicted))
+    return false;
+  const Rigid3d b_from_a = predicted.a_from_b.inverse();
+
+  // b's keypoints in a grid of radius-sized cells: a window touches at most 3 x 3 cells.
+  const double radius = options.guided_radius_px * in_b.width / 640.0;
+  const int columns = std::max(1, int(std::ceil(in_b.width / radius)));
+  const int rows = std::max(1, int(std::ceil(in_b.height / radius)));
+  auto cell_of = [&](double u, double v, int* cx, int* cy) {
+    *cx = std::clamp(int(std::floor(u / radius)), 0, columns - 1);
+    *cy = std::clamp(int(std::floor(v / radius)), 0, rows - 1);
+  };
+  std::vector<int> cell_start(static_cast<std::size_t>(columns) * rows + 1, 0);
+  std::vector<int> cell_items(static_cast<std::size_t>(count_b)), cell_index(static_cast<std::size_t>(count_b));
+  for (int j = 0; j < count_b; ++j) {
+    int cx, cy;
+    cell_of(b.keypoints[std::size_t(j)].u, b.keypoints[std::size_t(j)].v, &cx, &cy);
+    cell_index[std::size_t(j)] = cy * columns + cx;
+    ++cell_start[std::size_t(cell_index[std::size_t(j)]) + 1];
+  }
+  for (std::size_t c = 1; c < cell_start.size(); ++c) cell_start[c] += cell_start[c - 1];
+  {
+    std::vector<int> fill(cell_start.begin(), cell_start.end() - 1);
+    for (int j = 0; j < count_b; ++j) cell_items[std::size_t(fill[std::size_t(cell_index[std::size_t(j)])]++)] = j;
+  }
+  std::vector<int> offsets{0}, candidates;
+  offsets.reserve(std::size_t(count_a) + 1);
+  const double radius2 = radius * radius;
+  for (int i = 0; i < count_a; ++i) {
+    const Keypoint& k = a.keypoints[std::size_t(i)];
+    const Eigen::Vector3d p = b_from_a * in_a.backproject(k.u, k.v, k.depth);
+    if (p.z() > 0.05) {
+      const Eigen::Vector2d px = in_b.project(p);
+      int cx, cy;
+      cell_of(px.x(), px.y(), &cx, &cy);
+      for (int y = std::max(0, cy - 1); y <= std::min(rows - 1, cy + 1); ++y)
+        for (int x = std::max(0, cx - 1); x <= std::min(columns - 1, cx + 1); ++x) {
+          const int c = y * columns + x;
+          for (int s = cell_start[std::size_t(c)]; s < cell_start[std::size_t(c) + 1]; ++s) {
+            const int j = cell_items[std::size_t(s)];
+            const double du = b.keypoints[std::size_t(j)].u - px.x(), dv = b.keypoints[std::size_t(j)].v - px.y();
+            if (du * du + dv * dv <= radius2) candidates.push_back(j);
+          }
+        }
+    }
+    offsets.push_back(int(candidates.size()));
+  }
+  *matches = match_orb_among(a.descriptors, b.descriptors, offsets, candidates, {options.max_hamming, options.ratio});
+  return true;
 }
 
 // Step 2: the candidate frame pairs of each camera in a fixed order: each frame with the previous
@@ -170,21 +274,21 @@ PairOutcome match_pair(const PairTask& task, const std::vector<std::vector<Frame
     subset_b.resize(b.keypoints.size());
     std::iota(subset_b.begin(), subset_b.end(), 0);
   }
-  const auto matches =
-      match_orb(a.descriptors, subset_a, b.descriptors, subset_b, {options.max_hamming, options.ratio});
+  const std::int64_t key = (std::int64_t(task.sensor_a) * 8 + task.sensor_b) * 100000000LL +
+                           std::int64_t(task.frame_a) * 10000 + (task.frame_b % 10000);
+  std::vector<std::pair<int, int>> matches;
+  if (!cross && options.guided_matching) {
+    out.guided = match_by_projection(a, b, in_a, in_b, options, key, &matches);
+    out.guided_fallback = !out.guided;
+  }
+  if (!out.guided)
+    matches = match_orb(a.descriptors, subset_a, b.descriptors, subset_b, {options.max_hamming, options.ratio});
   out.matches = int(matches.size());
   if (int(matches.size()) < min_inliers) return out;
   if (cross) out.cross_stage = CrossStage::kMatches;
   std::vector<Eigen::Vector3d> pa, pb;
   std::vector<double> thresholds;
-  for (const auto& [i, j] : matches) {
-    pa.push_back(point(a.keypoints[i], in_a));
-    pb.push_back(point(b.keypoints[j], in_b));
-    const double sa = point_sigma(a.keypoints[i], in_a, options), sb = point_sigma(b.keypoints[j], in_b, options);
-    thresholds.push_back(std::max(options.ransac_min_threshold_m, options.ransac_sigmas * std::hypot(sa, sb)));
-  }
-  const std::int64_t key = (std::int64_t(task.sensor_a) * 8 + task.sensor_b) * 100000000LL +
-                           std::int64_t(task.frame_a) * 10000 + (task.frame_b % 10000);
+  matched_points(a, b, in_a, in_b, options, matches, &pa, &pb, &thresholds);
   RigidRansacResult ransac;
   const bool found =
       rigid_ransac(pa, pb, thresholds, options.ransac_iterations, min_inliers, options.seed, key, &ransac);
@@ -567,6 +671,10 @@ FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& option
   std::vector<PairOutcome> outcomes(tasks.size());
   tbb::parallel_for(std::size_t(0), tasks.size(),
                     [&](std::size_t k) { outcomes[k] = match_pair(tasks[k], result.features, scan, options); });
+  for (const PairOutcome& out : outcomes) {
+    result.guided_pairs += out.guided ? 1 : 0;
+    result.guided_fallbacks += out.guided_fallback ? 1 : 0;
+  }
   cross_camera::CameraChains chains;
   reject_implausible_pairs(tasks, outcomes, scan, options, result, &chains);
   for (PairOutcome& out : match_across_cameras(scan, options, relations, crops, chains, result))

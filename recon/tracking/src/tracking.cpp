@@ -119,6 +119,9 @@ TrackingOptions tracking_options_from_config(Config& config) {
   FrontendOptions& f = o.frontend;
   f.orb_features = config.get_int("frontend.orb_features", f.orb_features, 50, 20000);
   f.same_camera_window = config.get_int("frontend.same_camera_window", f.same_camera_window, 1, 100);
+  f.guided_matching = config.get_bool("frontend.guided_matching", f.guided_matching);
+  f.guide_keypoints = config.get_int("frontend.guide_keypoints", f.guide_keypoints, 3, 100000);
+  f.guided_radius_px = config.get_double("frontend.guided_radius_px", f.guided_radius_px, 0.5, 640.0);
   f.cross_camera = config.get_bool("frontend.cross_camera", f.cross_camera);
   f.loop_closure = config.get_bool("frontend.loop_closure", f.loop_closure);
   f.loop_frames = config.get_int("frontend.loop_frames", f.loop_frames, 0, 100);
@@ -231,6 +234,8 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   stats.cross_landmarks = frontend.cross_landmarks;
   stats.cross_observations = frontend.cross_observations;
   stats.frames_without_features = frontend.frames_without_features;
+  stats.guided_pairs = frontend.guided_pairs;
+  stats.guided_fallbacks = frontend.guided_fallbacks;
   stats.init_seconds = seconds_between(start, init_done);
   stats.solve_seconds = seconds_between(init_done, solve_done);
   stats.linear_solver_seconds = summary.linear_solver_time_in_seconds;
@@ -312,7 +317,8 @@ nlohmann::json stats_to_json(const TrackingStats& s) {
       {"frames_without_features", s.frames_without_features},
       {"pairs", {{"same_camera", s.same_camera_pairs}, {"cross_camera", s.cross_camera_pairs}, {"loop", s.loop_pairs},
                  {"rejected_loop", s.rejected_loop_pairs},
-                 {"rejected_far", s.rejected_far_pairs}}},
+                 {"rejected_far", s.rejected_far_pairs}, {"guided", s.guided_pairs},
+                 {"guided_fallback", s.guided_fallbacks}}},
       {"cross_camera_funnel",
        {{"candidates", s.cross_camera.candidates},
         {"with_band_keypoints", s.cross_camera.with_band_keypoints},

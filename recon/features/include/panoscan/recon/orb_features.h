@@ -59,5 +59,13 @@ std::vector<std::pair<int, int>> match_orb(const std::vector<OrbDescriptor>& a, 
 // The same over all descriptors.
 std::vector<std::pair<int, int>> match_orb(const std::vector<OrbDescriptor>& a, const std::vector<OrbDescriptor>& b,
                                            const OrbMatchOptions& options);
+// Matches (index in a, index in b) where each a is compared only with its own candidates in b:
+// candidates[candidate_offsets[i] .. candidate_offsets[i + 1]) are indices into b for a's index i
+// (candidate_offsets has a.size() + 1 entries). The same rules, the ratio test among the
+// candidates; a guided search (e.g. around a keypoint's predicted position) passes its window here.
+std::vector<std::pair<int, int>> match_orb_among(const std::vector<OrbDescriptor>& a,
+                                                 const std::vector<OrbDescriptor>& b,
+                                                 const std::vector<int>& candidate_offsets,
+                                                 const std::vector<int>& candidates, const OrbMatchOptions& options);
 
 }  // namespace panoscan
