@@ -81,8 +81,8 @@ TwoCameras make_cameras(const Eigen::Matrix3d& calibration_error) {
   const std::vector<Relation> relations = cross_camera::overlapping_relations(t.scan, {1, 1}, options);
   EXPECT_EQ(relations.size(), 1u);
   t.relation = relations.front();
-  t.crop_a = cross_camera::make_band_crop(render(in, ref_from_a_true), t.relation.roi_a, true, options);
-  t.crop_b = cross_camera::make_band_crop(render(in, Rigid3d::Identity()), t.relation.roi_b, false, options);
+  t.crop_a = cross_camera::make_band_crop(render(in, ref_from_a_true), t.relation, true, options);
+  t.crop_b = cross_camera::make_band_crop(render(in, Rigid3d::Identity()), t.relation, false, options);
   return t;
 }
 

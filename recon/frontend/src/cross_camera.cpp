@@ -34,45 +34,44 @@ int search_radius_px(const ScanIndex& scan, const Relation& relation, const Fron
 struct Anchor {
   Pixel pixel;
   float depth = 0;
-  std::vector<float> templ;
+  const float* templ = nullptr;     // the patch's template (BandCrop::templates), patch.count() values
   std::vector<cv::Point2f> warped;  // patch pixels in b's crop coordinates (at shift 0)
   cv::Point2f centre_in_b;          // the anchor itself, in b's full-image pixels
   double predicted_depth_in_b = 0;
 };
 
-// Template of the patch around `pixel` in a's crop; false if it leaves the crop, lacks depth, or
-// is flatter than band_min_contrast (a plain wall gives no alignment).
+// Template of the patch around `pixel` in a's crop into *templ; false if it leaves the crop, lacks
+// depth, or is flatter than band_min_contrast (a plain wall gives no alignment).
 bool make_template(const BandCrop& crop, Pixel pixel, const PatchShape& shape, const FrontendOptions& o,
-                   Anchor* anchor) {
+                   float* depth, std::vector<float>* templ) {
   const int x0 = pixel.x - crop.roi.x, y0 = pixel.y - crop.roi.y;
   if (x0 - shape.half_x < 0 || y0 - shape.half_y < 0 || x0 + shape.half_x >= crop.gray.width ||
       y0 + shape.half_y >= crop.gray.height)
     return false;
   const float z = crop.depth.at(x0, y0);
   if (!(z >= o.min_depth_m && z <= o.max_depth_m)) return false;
-  anchor->pixel = pixel;
-  anchor->depth = z;
-  anchor->templ.clear();
+  *depth = z;
+  templ->clear();
   double sum = 0;
   for (int j = -shape.half_y; j <= shape.half_y; ++j)
     for (int i = -shape.half_x; i <= shape.half_x; ++i) {
       const float g = crop.gray.at(x0 + i, y0 + j);
-      anchor->templ.push_back(g);
+      templ->push_back(g);
       sum += g;
     }
-  const double mean = sum / anchor->templ.size();
+  const double mean = sum / templ->size();
   double squares = 0;
-  for (float& g : anchor->templ) {
+  for (float& g : *templ) {
     g = float(g - mean);
     squares += double(g) * g;
   }
-  const double std_dev = std::sqrt(squares / anchor->templ.size());
+  const double std_dev = std::sqrt(squares / templ->size());
   if (std_dev < o.band_min_contrast) return false;
   // Both directions must be textured: an edge or a shading ramp (one eigenvalue of the structure
   // tensor near zero) correlates equally well all along itself, and in a band a few pixels high
   // that ambiguity cannot be seen by the search. Central differences inside the patch.
   const int w = 2 * shape.half_x + 1, h = 2 * shape.half_y + 1;
-  auto at = [&](int i, int j) { return double(anchor->templ[std::size_t(j) * w + i]); };
+  auto at = [&](int i, int j) { return double((*templ)[std::size_t(j) * w + i]); };
   double sxx = 0, syy = 0, sxy = 0;
   int n = 0;
   for (int j = 1; j + 1 < h; ++j)
@@ -86,8 +85,15 @@ bool make_template(const BandCrop& crop, Pixel pixel, const PatchShape& shape, c
   const double min_eigen = 0.5 * (sxx + syy) - std::sqrt(0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy);
   if (min_eigen < o.band_min_gradient * o.band_min_gradient) return false;
   const float inverse_norm = float(1.0 / std::sqrt(squares));
-  for (float& g : anchor->templ) g *= inverse_norm;
+  for (float& g : *templ) g *= inverse_norm;
   return true;
+}
+
+// The anchor of crop a's patch k (its pixel, depth and template; warp_anchor adds the rest).
+void set_anchor(const BandCrop& crop_a, std::size_t k, Anchor* anchor) {
+  anchor->pixel = crop_a.patches[k].pixel;
+  anchor->depth = crop_a.patches[k].depth;
+  anchor->templ = crop_a.templates.data() + k * std::size_t(crop_a.patch_pixels);
 }
 
 // Warps the anchor's patch into b, every patch pixel at the anchor's depth. The depth matters for
@@ -103,9 +109,13 @@ bool warp_anchor(const Relation& relation, const Rigid3d& b_from_a, const ScanIn
   anchor->centre_in_b = cv::Point2f(float(centre_px.x()), float(centre_px.y()));
   anchor->predicted_depth_in_b = centre.z();
   anchor->warped.clear();
+  // At one depth the back-projected patch is linear in the pixel offsets: the point of offset
+  // (i, j) is centre + i step_u + j step_v in b.
+  const Eigen::Vector3d step_u = b_from_a.linear().col(0) * (anchor->depth / in_a.fx);
+  const Eigen::Vector3d step_v = b_from_a.linear().col(1) * (anchor->depth / in_a.fy);
   for (int j = -shape.half_y; j <= shape.half_y; ++j)
     for (int i = -shape.half_x; i <= shape.half_x; ++i) {
-      const Eigen::Vector3d p = b_from_a * in_a.backproject(anchor->pixel.x + i, anchor->pixel.y + j, anchor->depth);
+      const Eigen::Vector3d p = centre + double(i) * step_u + double(j) * step_v;
       if (p.z() <= 0.05) return false;
       const Eigen::Vector2d px = in_b.project(p);
       anchor->warped.emplace_back(float(px.x() - crop_b.roi.x), float(px.y() - crop_b.roi.y));
@@ -132,7 +142,9 @@ void prepare_sampler(const Anchor& anchor, const ImageF32& gray_b, PatchSampler*
   sampler->max_x = sampler->max_y = -std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < n; ++k) {
     const float x = anchor.warped[k].x, y = anchor.warped[k].y;
-    const float ix = std::floor(x), iy = std::floor(y);
+    // floor without a libm call (the x86-64 baseline has no SSE4.1 rounding instruction).
+    const int x_int = int(x), y_int = int(y);
+    const float ix = float(x_int - (float(x_int) > x)), iy = float(y_int - (float(y_int) > y));
     const float fx = x - ix, fy = y - iy;
     sampler->offset[k] = std::ptrdiff_t(iy) * stride + std::ptrdiff_t(ix);
     sampler->w00[k] = (1 - fy) * (1 - fx), sampler->w01[k] = (1 - fy) * fx;
@@ -175,7 +187,7 @@ int correlation_surface(const Anchor& anchor, const PatchSampler& sampler, const
   std::vector<double>& sums = scratch->sums;
   std::vector<double>& squares = scratch->squares;
   std::vector<double>& cross = scratch->cross;
-  const std::size_t n = anchor.templ.size();
+  const std::size_t n = anchor.warped.size();
   const std::ptrdiff_t stride = std::ptrdiff_t(gray_b.width) * gray_b.channels;
   const float* image = gray_b.row(0);
   for (std::size_t k = 0; k < n; ++k) {
@@ -286,8 +298,9 @@ std::vector<Relation> overlapping_relations(const ScanIndex& scan, const std::ve
   return relations;
 }
 
-BandCrop make_band_crop(const RgbdFrame& frame, const PixelRect& roi, bool with_corners,
+BandCrop make_band_crop(const RgbdFrame& frame, const Relation& relation, bool camera_a,
                         const FrontendOptions& options) {
+  const PixelRect& roi = camera_a ? relation.roi_a : relation.roi_b;
   BandCrop crop;
   crop.roi = roi;
   const cv::Rect rect(roi.x, roi.y, roi.width, roi.height);
@@ -301,7 +314,7 @@ BandCrop make_band_crop(const RgbdFrame& frame, const PixelRect& roi, bool with_
   grey_u8.convertTo(gray, CV_32F);
   cv::Mat depth_crop(roi.height, roi.width, CV_32F, crop.depth.data.data());  // writes into crop.depth
   depth(rect).copyTo(depth_crop);
-  if (!with_corners) return crop;
+  if (!camera_a) return crop;
   // Corners: 3x3 local maxima of the minimum eigenvalue of the structure tensor, strongest first.
   cv::Mat eigen;
   cv::cornerMinEigenVal(gray, eigen, 3, 3);
@@ -322,6 +335,15 @@ BandCrop make_band_crop(const RgbdFrame& frame, const PixelRect& roi, bool with_
   std::stable_sort(maxima.begin(), maxima.end(), [](const auto& l, const auto& r) { return l.first > r.first; });
   const std::size_t keep = std::min<std::size_t>(maxima.size(), std::size_t(options.band_max_corners));
   for (std::size_t k = 0; k < keep; ++k) crop.corners.push_back(maxima[k].second);
+  const PatchShape shape = patch_shape(relation, options);
+  crop.patch_pixels = shape.count();
+  std::vector<float> templ;
+  for (const Pixel& corner : crop.corners) {
+    float z = 0;
+    if (!make_template(crop, corner, shape, options, &z, &templ)) continue;
+    crop.patches.push_back({corner, z});
+    crop.templates.insert(crop.templates.end(), templ.begin(), templ.end());
+  }
   return crop;
 }
 
@@ -397,8 +419,8 @@ Eigen::Matrix3d estimate_band_correction(const Relation& relation, const CameraC
     PatchSampler sampler;
     CorrelationSums sums;
     std::vector<double> surface(std::size_t(side) * side);
-    for (const Pixel& corner : crop_a.corners) {
-      if (!make_template(crop_a, corner, shape, options, &anchor)) continue;
+    for (std::size_t patch = 0; patch < crop_a.patches.size(); ++patch) {
+      set_anchor(crop_a, patch, &anchor);
       if (!warp_anchor(relation, b_from_a, scan, crop_b, shape, &anchor)) continue;
       prepare_sampler(anchor, crop_b.gray, &sampler);
       const int best = correlation_surface(anchor, sampler, crop_b.gray, radius, &surface, &sums);
@@ -523,10 +545,11 @@ BandPairResult match_band_pair(const Relation& relation, const Rigid3d& b_from_a
   PatchSampler sampler;
   CorrelationSums sums;
   std::vector<double> surface;
-  for (const Pixel& corner : crop_a.corners) {
+  for (std::size_t k = 0; k < crop_a.patches.size(); ++k) {
+    const Pixel& corner = crop_a.patches[k].pixel;
     const int cell = (relation.along_x ? corner.x : corner.y) / cell_size;
     if (cell_used[cell]) continue;
-    if (!make_template(crop_a, corner, shape, options, &anchor)) continue;
+    set_anchor(crop_a, k, &anchor);
     if (!warp_anchor(relation, b_from_a, scan, crop_b, shape, &anchor)) continue;
     prepare_sampler(anchor, crop_b.gray, &sampler);
     // Every shift of the window that keeps the patch inside b; the peak's four neighbours must be

@@ -58,8 +58,20 @@ struct BandCrop {
   PixelRect roi;
   ImageF32 gray, depth;
   std::vector<Pixel> corners;  // in full-image pixels; only for the relation's camera a
+  // Camera a's corners that make a usable patch (inside the crop, with depth, contrast and texture
+  // in both directions), strongest first, each with its zero-mean, unit-norm template: computed
+  // once per frame, not once per frame of b the patch is aligned with (band_frames of them and the
+  // calibration's sample: this was a tenth of the front end's instructions).
+  struct Patch {
+    Pixel pixel;
+    float depth = 0;
+  };
+  std::vector<Patch> patches;
+  std::vector<float> templates;  // patches.size() x patch_pixels, row by row
+  int patch_pixels = 0;
 };
-BandCrop make_band_crop(const RgbdFrame& frame, const PixelRect& roi, bool with_corners,
+// camera_a: the crop of the relation's camera a (corners and patch templates) or b (pixels only).
+BandCrop make_band_crop(const RgbdFrame& frame, const Relation& relation, bool camera_a,
                         const FrontendOptions& options);
 
 // Poses of each camera's frames along chains of verified same-camera transforms (a frame without a

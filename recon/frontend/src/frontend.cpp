@@ -656,9 +656,9 @@ FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& option
     if (!options.band_matching) return;
     for (std::size_t r = 0; r < relations.size(); ++r) {
       if (relations[r].sensor_a == s)
-        crops[r][0][f] = cross_camera::make_band_crop(frame, relations[r].roi_a, true, options);
+        crops[r][0][f] = cross_camera::make_band_crop(frame, relations[r], true, options);
       if (relations[r].sensor_b == s)
-        crops[r][1][f] = cross_camera::make_band_crop(frame, relations[r].roi_b, false, options);
+        crops[r][1][f] = cross_camera::make_band_crop(frame, relations[r], false, options);
     }
   });
   const auto features_done = std::chrono::steady_clock::now();
