@@ -332,7 +332,8 @@ TEST_F(TrackingTest, MatchingByProjectionVerifiesThePairsBruteForceVerifies) {
   int same_camera_tasks = 0;  // and loop pairs
   for (const auto& camera : scan_->frames) {
     for (int f = 1; f < int(camera.size()); ++f) same_camera_tasks += std::min(f, brute_options.same_camera_window);
-    if (int(camera.size()) > 4 * brute_options.loop_frames) same_camera_tasks += brute_options.loop_frames * brute_options.loop_frames;
+    if (int(camera.size()) > 4 * brute_options.loop_frames)
+      same_camera_tasks += brute_options.loop_frames * brute_options.loop_frames;
   }
   // (Pairs with a frame of fewer than min_inliers keypoints are neither: they are not matched.)
   EXPECT_LE(frontend_->guided_pairs + frontend_->guided_fallbacks, same_camera_tasks);

@@ -158,12 +158,11 @@ bool match_by_projection(const FrameFeatures& a, const FrameFeatures& b, const P
   std::vector<double> thresholds;
   matched_points(a, b, in_a, in_b, options, sample_matches, &pa, &pb, &thresholds);
   RigidRansacResult predicted;
-  // Its own random stream (negative keys are not used by the pairs' RANSAC).
-  // Half the pair's iterations: the sample's matches are mostly right (one draw in two of three
-  // inliers at 80% inliers; 100 draws miss all-inlier samples with probability 1e-6 at 50%).
-  if (!rigid_ransac(pa, pb, thresholds, std::max(1, options.ransac_iterations / 2), options.min_inliers, options.seed,
-                    -1 - key,
-                    &predicted))
+  // Its own random stream (negative keys are not used by the pairs' RANSAC), and half the pair's
+  // iterations: the sample's matches are mostly right (at 80% inliers about every second draw is
+  // all inliers; at 50%, 100 draws all miss with probability 1e-6).
+  const int iterations = std::max(1, options.ransac_iterations / 2);
+  if (!rigid_ransac(pa, pb, thresholds, iterations, options.min_inliers, options.seed, -1 - key, &predicted))
     return false;
   const Rigid3d b_from_a = predicted.a_from_b.inverse();
 
