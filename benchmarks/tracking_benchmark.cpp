@@ -1,7 +1,8 @@
 // Speed of the joint tracking (paper Table 6: 4.3 ms per frame front end, 3.02 s tracking per
 // panorama at n = 16 on a 6-core CPU). Simulated office SO-1 scans with Handa noise, rendered once
 // per (resolution, n) into a temporary directory. Arguments: {width, n} (Solve: {width, n, solver}).
-//   tracking_benchmark --benchmark_filter=Frontend      front end ms per frame (counter ms_per_frame)
+//   tracking_benchmark --benchmark_filter=Frontend      front end ms per frame (counter ms_per_frame),
+//                                                       matched by projection and brute force
 //   tracking_benchmark --benchmark_filter=Solve         factor graph per panorama, against n
 #include <benchmark/benchmark.h>
 
@@ -48,13 +49,18 @@ TrackingOptions benchmark_options() {
   return options;
 }
 
+// Third argument: 1 = same-camera and loop pairs matched by projection (frontend.guided_matching,
+// the default), 0 = brute force, the reference in the same run.
 void BM_Frontend(benchmark::State& state) {
   const ScanIndex& scan = scan_for(int(state.range(0)), int(state.range(1)));
   std::size_t frames = 0;
   for (const auto& f : scan.frames) frames += f.size();
+  FrontendOptions options = benchmark_options().frontend;
+  options.guided_matching = state.range(2) != 0;
+  state.SetLabel(options.guided_matching ? "matched by projection" : "brute-force matching");
   double ms = 0, feature_ms = 0, matching_ms = 0, landmarks = 0;
   for (auto _ : state) {
-    const FrontendResult result = run_frontend(scan, benchmark_options().frontend);
+    const FrontendResult result = run_frontend(scan, options);
     ms = 1e3 * result.total_seconds / double(frames);
     feature_ms = result.feature_ms_per_frame;    // decoding the frame, ORB, the overlap crops
     matching_ms = result.matching_ms_per_frame;  // pairs, RANSAC, cross-camera, landmarks
@@ -98,7 +104,12 @@ void BM_Solve(benchmark::State& state) {
   state.counters["converged"] = stats.converged;
 }
 
-BENCHMARK(BM_Frontend)->Args({640, 16})->Args({320, 16})->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_Frontend)
+    ->Args({640, 16, 1})
+    ->Args({640, 16, 0})
+    ->Args({320, 16, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 // Third argument: 0 = SPARSE_SCHUR (default), 1 = SPARSE_NORMAL_CHOLESKY, 2 = DENSE_SCHUR,
 // 3 = ITERATIVE_SCHUR (SCHUR_JACOBI; not run here: 31 s at 640/16 against 2.8 s, see
 // recon/tracking/README.md "Solver speed").
