@@ -43,14 +43,15 @@ struct FrontendOptions {
   int max_hamming = 64;             // descriptor distance limit
   double ratio = 0.8;               // Lowe ratio test
   int same_camera_window = 2;       // frame i is matched with i-1 ... i-window of its camera
-  // Same-camera and loop pairs matched by projection (frontend.cpp, match_by_projection): guide_keypoints
-  // (per 640x480 frame, scaled with the image area) of frame a, spread over its list, matched against all of b and verified by RANSAC predict
-  // a_from_b; each keypoint of a is then compared only with b's keypoints within guided_radius_px
-  // (at 640 px width, scaled with the width) of its predicted position. A pair whose sample does
-  // not verify falls back to matching every keypoint with every one. Off: every pair brute force.
-  bool guided_matching = true;    // frontend.guided_matching
-  int guide_keypoints = 150;      // frontend.guide_keypoints
-  double guided_radius_px = 10;   // frontend.guided_radius_px
+  // Same-camera and loop pairs matched by projection (frontend.cpp, match_by_projection):
+  // guide_keypoints of frame a (per 640x480 frame, scaled with the image area), spread over its
+  // list, matched against all of b and verified by RANSAC predict a_from_b; each keypoint of a is
+  // then compared only with b's keypoints within guided_radius_px (at 640 px width, scaled with the
+  // width) of its predicted position. A pair whose sample does not verify falls back to matching
+  // every keypoint with every one. Off: every pair brute force.
+  bool guided_matching = true;   // frontend.guided_matching
+  int guide_keypoints = 150;     // frontend.guide_keypoints
+  double guided_radius_px = 10;  // frontend.guided_radius_px
   bool cross_camera = true;         // ORB matches between cameras (temporally closest frames)
   int cross_overlap_margin_px = 8;  // a keypoint is in the overlap band if it projects this far inside the other image
   // Band alignment across cameras (frontend.band_*; src/cross_camera.h): the narrow overlap matched
@@ -159,7 +160,8 @@ struct FrontendResult {
   // Per sensor: landmarks it shares with another camera, and its observations of them.
   std::vector<int> cross_landmarks, cross_observations;
   int frames_without_features = 0;  // fewer than min_inliers keypoints with depth
-  // Same-camera and loop pairs matched by projection, and those whose sample did not verify (brute force).
+  // Same-camera and loop pairs matched by projection, and those whose sample did not verify
+  // (matched brute force).
   int guided_pairs = 0, guided_fallbacks = 0;
   double feature_ms_per_frame = 0;  // extraction (wall time / frames)
   double matching_ms_per_frame = 0;

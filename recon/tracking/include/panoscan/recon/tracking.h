@@ -160,7 +160,7 @@ struct TrackingStats {
   double init_seconds = 0, solve_seconds = 0;
   double linear_solver_seconds = 0, jacobian_seconds = 0;  // parts of solve_seconds (Ceres' summary)
   int same_camera_pairs = 0, cross_camera_pairs = 0, loop_pairs = 0, frames_without_features = 0;
-  int guided_pairs = 0, guided_fallbacks = 0;  // same-camera and loop pairs matched by projection / brute force (frontend.h)
+  int guided_pairs = 0, guided_fallbacks = 0;  // pairs matched by projection / brute force (frontend.h)
   int rejected_loop_pairs = 0, rejected_far_pairs = 0;  // FrontendResult's, for tracking_stats.json
   CrossCameraFunnel cross_camera;                       // FrontendResult's: where cross-camera pairs are lost
   std::vector<int> cross_landmarks, cross_observations;  // per sensor (FrontendResult's)
