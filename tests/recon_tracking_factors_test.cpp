@@ -207,7 +207,43 @@ TEST(TrackingFactors, EveryFactorsJacobianMatchesNumericDifferentiation) {
         tf::ExtrinsicsNullPriorCost::create(prior_q.values.data(), prior_t.values.data(), 1e-3, 1e-3),
         {quaternion_block(near_prior), translation_block(near_prior), quaternion_block(axis), quaternion_block(rig)},
         "extrinsics null-space prior");
+    // The depth odometry's relative pose (beyond the paper), near its measurement, with a full
+    // (correlated) square-root information.
+    const Rigid3d frame_a = random_pose(rng, 0.7, 0.5), a_from_b = random_pose(rng, 0.1, 0.05);
+    const Rigid3d frame_b = frame_a * a_from_b * random_pose(rng, 0.01, 0.005);
+    const Block measured_q = quaternion_block(a_from_b), measured_t = translation_block(a_from_b);
+    std::vector<double> root(36);
+    for (double& x : root) x = 100.0 * rng.normal();
+    expect_jacobians_match_numeric(
+        tf::RelativePoseCost::create(measured_q.values.data(), measured_t.values.data(), root.data()),
+        {quaternion_block(frame_a), translation_block(frame_a), quaternion_block(frame_b), translation_block(frame_b)},
+        "depth odometry (relative pose)");
   }
+}
+
+TEST(TrackingFactors, RelativePoseResidualIsTheWhitenedRightPerturbation) {
+  // Frame b exactly where the measurement puts it: zero residual. Then b moved by a small right
+  // perturbation (omega, v) in b's frame, the ICP's parametrisation: the residual is S (omega, v).
+  const Rigid3d frame_a = make_rigid(so3_exp(Eigen::Vector3d(0.1, 1.2, -0.2)), Eigen::Vector3d(0.3, -0.1, 1.2));
+  const Rigid3d a_from_b = make_rigid(so3_exp(Eigen::Vector3d(0.0, 0.1, 0.01)), Eigen::Vector3d(0.02, 0.0, -0.01));
+  Eigen::Matrix<double, 6, 6, Eigen::RowMajor> root = Eigen::Matrix<double, 6, 6>::Identity() * 50.0;
+  root(0, 4) = 20.0;  // a correlation between the rotation about x and the slide along y
+  const Block mq = quaternion_block(a_from_b), mt = translation_block(a_from_b);
+  std::unique_ptr<ceres::CostFunction> cost(tf::RelativePoseCost::create(mq.values.data(), mt.values.data(), root.data()));
+  auto evaluate = [&](const Rigid3d& frame_b) {
+    const Block qa = quaternion_block(frame_a), ta = translation_block(frame_a);
+    const Block qb = quaternion_block(frame_b), tb = translation_block(frame_b);
+    const double* parameters[] = {qa.values.data(), ta.values.data(), qb.values.data(), tb.values.data()};
+    Eigen::Matrix<double, 6, 1> residual;
+    EXPECT_TRUE(cost->Evaluate(parameters, residual.data(), nullptr));
+    return residual;
+  };
+  EXPECT_LT(evaluate(frame_a * a_from_b).norm(), 1e-9);
+  Eigen::Matrix<double, 6, 1> delta;
+  delta << 1e-4, -2e-4, 3e-4, 1e-4, 2e-4, -5e-5;
+  const Rigid3d perturbed = frame_a * a_from_b * make_rigid(so3_exp(delta.head<3>()), delta.tail<3>());
+  const Eigen::Matrix<double, 6, 1> expected = root * delta;
+  EXPECT_LT((evaluate(perturbed) - expected).norm(), 1e-6 * expected.norm());
 }
 
 TEST(TrackingFactors, ObservationAndRegularisationResidualsVanishAtAConsistentState) {

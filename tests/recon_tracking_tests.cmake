@@ -29,3 +29,9 @@ panoscan_add_test(recon_handheld_test
   DEPS panoscan_recon_tracking panoscan_sim panoscan_scenes panoscan_eval nlohmann_json::nlohmann_json
   LABELS e2e)
 add_dependencies(recon_handheld_test panoscan)
+# The depth odometry (beyond the paper) on depth images of planes with a known motion.
+panoscan_add_test(recon_depth_odometry_test
+  SOURCES recon_depth_odometry_test.cpp
+  DEPS panoscan_recon_tracking panoscan_recon_frontend panoscan_core
+  LABELS recon)
+target_include_directories(recon_depth_odometry_test PRIVATE ${CMAKE_SOURCE_DIR}/recon/tracking/src)

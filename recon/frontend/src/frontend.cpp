@@ -40,6 +40,7 @@ void FrontendOptions::check(const std::string& origin) const {
   require(min_depth_m > 0.0 && max_depth_m > min_depth_m, "min_depth_m", "need 0 < min_depth_m < max_depth_m");
   require(depth_noise_coefficient > 0.0, "depth_noise_coefficient", "must be > 0");
   require(threads >= 0, "threads", "must be >= 0");
+  require(depth_grid_block >= 0 && depth_grid_block <= 64, "depth_grid_block", "must be in [0, 64] (0 = none)");
   require(loop_max_deviation_deg >= 0.0 && loop_max_deviation_deg <= 180.0, "loop_max_deviation_deg",
           "must be in [0, 180] (0 = no check)");
   require(loop_max_deviation_m >= 0.0, "loop_max_deviation_m", "must be >= 0 (0 = no check)");
@@ -634,6 +635,7 @@ FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& option
   std::vector<std::pair<int, int>> frame_list;
   for (int s = 0; s < sensor_count; ++s) {
     result.features[s].resize(scan.frames[s].size());
+    if (options.depth_grid_block > 0) result.depth_grids.emplace_back(scan.frames[s].size());
     if (used[s])
       for (int f = 0; f < int(scan.frames[s].size()); ++f) frame_list.push_back({s, f});
   }
@@ -652,6 +654,9 @@ FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& option
     const auto [s, f] = frame_list[k];
     const RgbdFrame frame = load_frame(scan, s, std::size_t(f));
     result.features[s][f] = extract_features(frame, scan.rig.sensors[s].intrinsics, options);
+    if (options.depth_grid_block > 0)
+      result.depth_grids[s][f] = make_depth_grid(frame.depth, scan.rig.sensors[s].intrinsics, options.depth_grid_block,
+                                                 options.depth_noise_coefficient);
     if (!options.band_matching) return;
     for (std::size_t r = 0; r < relations.size(); ++r) {
       if (relations[r].sensor_a == s)

@@ -40,6 +40,14 @@ void TrackingOptions::check(const std::string& origin) const {
               linear_solver == "iterative_schur" || linear_solver == "dense_schur",
           "track.linear_solver", "must be sparse_schur, dense_schur, iterative_schur or sparse_normal_cholesky");
   require(threads >= 0, "threads", "must be >= 0");
+  require(depth_odometry_block_px >= 1 && depth_odometry_block_px <= 64, "track.depth_odometry_block_px",
+          "must be in [1, 64]");
+  require(depth_odometry_information_scale > 0 && depth_odometry_information_scale <= 1e6,
+          "track.depth_odometry_information_scale", "must be in (0, 1e6]");
+  require(depth_odometry_max_distance_m > 0 && depth_odometry_max_distance_m <= 10, "track.depth_odometry_max_distance_m",
+          "must be in (0, 10]");
+  require(depth_odometry_min_overlap >= 0 && depth_odometry_min_overlap <= 1, "track.depth_odometry_min_overlap",
+          "must be in [0, 1]");
   frontend.check(origin);
   verify.check(origin);
 }
@@ -106,6 +114,14 @@ TrackingOptions tracking_options_from_config(Config& config) {
   o.wobble_rate_std_deg_s = config.get_double("track.wobble_rate_std_deg_s", o.wobble_rate_std_deg_s, 1e-3, 1e4);
   o.wobble_rate_std_m_s = config.get_double("track.wobble_rate_std_m_s", o.wobble_rate_std_m_s, 1e-5, 100.0);
   o.same_time_s = config.get_double("track.same_time_s", o.same_time_s, 0.0, 0.099);
+  o.depth_odometry = config.get_bool("track.depth_odometry", o.depth_odometry);
+  o.depth_odometry_block_px = config.get_int("track.depth_odometry_block_px", o.depth_odometry_block_px, 1, 64);
+  o.depth_odometry_information_scale = config.get_double("track.depth_odometry_information_scale",
+                                                         o.depth_odometry_information_scale, 1e-9, 1e6);
+  o.depth_odometry_max_distance_m =
+      config.get_double("track.depth_odometry_max_distance_m", o.depth_odometry_max_distance_m, 1e-4, 10.0);
+  o.depth_odometry_min_overlap =
+      config.get_double("track.depth_odometry_min_overlap", o.depth_odometry_min_overlap, 0.0, 1.0);
   o.huber_delta = config.get_double("track.huber_delta", o.huber_delta, 1e-3, 1e3);
   o.depth_noise_coefficient = config.get_double("track.depth_noise_coefficient", o.depth_noise_coefficient, 1e-6, 1.0);
   o.max_iterations = config.get_int("track.max_iterations", o.max_iterations, 1, 10000);
@@ -152,6 +168,8 @@ TrackingOptions tracking_options_from_config(Config& config) {
   f.seed = config.get_u64("seed", f.seed);
   f.threads = o.threads;
   f.depth_noise_coefficient = o.depth_noise_coefficient;
+  // The front end keeps the depth grids the depth odometry aligns (decoded once).
+  f.depth_grid_block = o.depth_odometry ? o.depth_odometry_block_px : 0;
   o.allow_unreliable = config.get_bool("track.allow_unreliable", o.allow_unreliable);
   TrackingVerifyOptions& v = o.verify;
   v.enabled = config.get_bool("track.verify.enabled", v.enabled);
@@ -195,6 +213,9 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   tg::add_regularisation_factors(graph, state, options);
   tg::add_shared_wobble_factors(graph, state, options);
   tg::add_velocity_factors(graph, state, options);
+  const SteadyTime depth_start = steady_now();
+  tg::add_depth_odometry_factors(graph, state, scan, frontend, options);
+  const double depth_seconds = seconds_between(depth_start, steady_now());
   tg::fix_gauge(graph, state, options);
   TrackingStats stats;
   stats.mode = to_string(options.mode);
@@ -212,6 +233,9 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   }
   stats.observations = int(graph.blocks[tg::kObservation].size());
   stats.shared_wobble_links = graph.shared_wobble_links;
+  stats.depth_pairs = graph.depth_pairs;
+  stats.depth_pairs_rejected = graph.depth_pairs_rejected;
+  stats.depth_odometry_seconds = depth_seconds;
   stats.extrinsics_observed = state.extrinsics_observed;
   stats.landmarks = int(state.tracks.size());
   stats.residual_blocks = graph.problem->NumResidualBlocks();
@@ -237,7 +261,7 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   stats.guided_pairs = frontend.guided_pairs;
   stats.guided_fallbacks = frontend.guided_fallbacks;
   stats.init_seconds = seconds_between(start, init_done);
-  stats.solve_seconds = seconds_between(init_done, solve_done);
+  stats.solve_seconds = seconds_between(init_done, solve_done) - depth_seconds;  // the ICP is reported on its own
   stats.linear_solver_seconds = summary.linear_solver_time_in_seconds;
   stats.jacobian_seconds = summary.jacobian_evaluation_time_in_seconds;
   if (!stats.converged)
@@ -264,6 +288,8 @@ TrackingResult track_scan(const ScanIndex& scan, const TrackingOptions& options)
   frontend_options.threads = options.threads;
   frontend_options.depth_noise_coefficient = options.depth_noise_coefficient;
   if (options.mode == TrackingMode::kSingleCamera) frontend_options.sensors = {scan.rig.reference_sensor};
+  frontend_options.depth_grid_block =
+      options.depth_odometry && options.mode != TrackingMode::kBaOnly ? options.depth_odometry_block_px : 0;
   // The loop closure pairs the end of the turn with its start and keeps only pairs that fit an
   // in-place rotation (frontend.h); a handheld recording has neither.
   if (scan.rig.motion == RigMotion::kHandheld && frontend_options.loop_closure) {
@@ -348,10 +374,12 @@ nlohmann::json stats_to_json(const TrackingStats& s) {
       {"initial_cost", s.initial_cost},
       {"final_cost", s.final_cost},
       {"term_costs",
-       {{"order", {"observation", "regularisation", "velocity", "priors", "shared_wobble"}},
+       {{"order", {"observation", "regularisation", "velocity", "priors", "shared_wobble", "depth_odometry"}},
         {"initial", s.initial_term_costs},
         {"final", s.final_term_costs}}},
       {"shared_wobble_links", s.shared_wobble_links},
+      {"depth_odometry",
+       {{"pairs", s.depth_pairs}, {"rejected", s.depth_pairs_rejected}, {"seconds", s.depth_odometry_seconds}}},
       {"converged", s.converged},
       {"termination", s.termination},
       {"linear_solver", s.linear_solver},

@@ -351,4 +351,42 @@ struct PosePriorCost {
   double q_prior_inverse_[4], t_prior_[3], sigma_t_, sigma_r_;
 };
 
+// Depth odometry (beyond the paper; track.depth_odometry, depth_odometry.h): frames a and b of one
+// camera and the ICP's measured a_from_b = Z. The error transform E = Z^-1 T_a^-1 T_b is the
+// identity when the poses agree with the measurement; the residual is S (rotation vector of E,
+// translation of E), S^T S the ICP's information in that (omega, v) order (a right perturbation of
+// Z, as the ICP linearises). Directions the depth does not observe (a wall's in-plane slide) have
+// zero rows in S and no effect.
+struct RelativePoseCost {
+  RelativePoseCost(const double* q_measured, const double* t_measured, const double* sqrt_information_row_major) {
+    for (int k = 0; k < 4; ++k) q_measured_inverse_[k] = k == 0 ? q_measured[0] : -q_measured[k];
+    for (int k = 0; k < 3; ++k) t_measured_[k] = t_measured[k];
+    for (int k = 0; k < 36; ++k) sqrt_information_[k] = sqrt_information_row_major[k];
+  }
+  template <typename T>
+  bool operator()(const T* q_a, const T* t_a, const T* q_b, const T* t_b, T* residual) const {
+    T q_a_inv[4], t_a_inv[3], q_ab[4], t_ab[3];
+    invert(q_a, t_a, q_a_inv, t_a_inv);
+    compose(q_a_inv, t_a_inv, q_b, t_b, q_ab, t_ab);  // T_a^-1 T_b
+    const T q_z_inv[4] = {T(q_measured_inverse_[0]), T(q_measured_inverse_[1]), T(q_measured_inverse_[2]),
+                          T(q_measured_inverse_[3])};
+    T q_error[4], error[6], shifted[3];
+    ceres::QuaternionProduct(q_z_inv, q_ab, q_error);
+    ceres::QuaternionToAngleAxis(q_error, error);
+    for (int k = 0; k < 3; ++k) shifted[k] = t_ab[k] - T(t_measured_[k]);
+    ceres::QuaternionRotatePoint(q_z_inv, shifted, error + 3);  // R_z^T (t_ab - t_z)
+    for (int r = 0; r < 6; ++r) {
+      residual[r] = T(0);
+      for (int c = 0; c < 6; ++c) residual[r] += T(sqrt_information_[6 * r + c]) * error[c];
+    }
+    return true;
+  }
+  static ceres::CostFunction* create(const double* q_measured, const double* t_measured,
+                                     const double* sqrt_information_row_major) {
+    return new ceres::AutoDiffCostFunction<RelativePoseCost, 6, 4, 3, 4, 3>(
+        new RelativePoseCost(q_measured, t_measured, sqrt_information_row_major));
+  }
+  double q_measured_inverse_[4], t_measured_[3], sqrt_information_[36];
+};
+
 }  // namespace panoscan::tracking_factors

@@ -12,10 +12,12 @@
 #include <thread>
 
 #include <fmt/format.h>
+#include <tbb/parallel_for.h>
 
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
 #include "panoscan/core/trajectory.h"
+#include "depth_odometry.h"
 #include "tracking_factors.h"
 #include "tracking_init.h"
 
@@ -324,6 +326,68 @@ void add_velocity_factors(FactorGraph& graph, TrackingState& st, const TrackingO
     graph.blocks[kVelocity].push_back(graph.problem->AddResidualBlock(tf::VelocityCost::create(a.t, b.t, c.t, sigma),
                                                                       nullptr, &st.alpha[a.s][a.f], &st.alpha[b.s][b.f],
                                                                       &st.alpha[c.s][c.f]));
+  }
+}
+
+void add_depth_odometry_factors(FactorGraph& graph, TrackingState& st, const ScanIndex& scan,
+                                const FrontendResult& frontend, const TrackingOptions& options) {
+  if (!options.depth_odometry || options.mode == TrackingMode::kBaOnly) return;
+  struct PairTask {
+    int s = 0, f = 0;
+  };
+  std::vector<PairTask> tasks;
+  for (int s = 0; s < st.sensor_count; ++s)
+    if (st.active[s])
+      for (int f = 0; f + 1 < int(st.poses[s].size()); ++f) tasks.push_back({s, f});
+  // The front end's grids, or (a front end run without them) grids from the depth images.
+  const int block = options.depth_odometry_block_px;
+  bool have_grids = int(frontend.depth_grids.size()) == st.sensor_count;
+  for (int s = 0; s < st.sensor_count && have_grids; ++s)
+    if (st.active[s]) {
+      have_grids = frontend.depth_grids[s].size() == st.poses[s].size();
+      for (const DepthGrid& grid : frontend.depth_grids[s]) have_grids = have_grids && grid.block == block;
+    }
+  std::vector<std::vector<DepthGrid>> read_grids;
+  if (!have_grids) {
+    read_grids.resize(st.sensor_count);
+    std::vector<PairTask> frames;
+    for (int s = 0; s < st.sensor_count; ++s) {
+      if (st.active[s]) read_grids[s].resize(st.poses[s].size());
+      for (int f = 0; f < int(read_grids[s].size()); ++f) frames.push_back({s, f});
+    }
+    tbb::parallel_for(std::size_t(0), frames.size(), [&](std::size_t k) {
+      const auto [s, f] = frames[k];
+      read_grids[s][f] = make_depth_grid(load_frame(scan, s, std::size_t(f)).depth, scan.rig.sensors[s].intrinsics,
+                                         block, options.depth_noise_coefficient);
+    });
+  }
+  const auto& grids = have_grids ? frontend.depth_grids : read_grids;
+  depth_odometry::AlignOptions align;
+  align.depth_noise_coefficient = options.depth_noise_coefficient;
+  align.max_distance_m = options.depth_odometry_max_distance_m;
+  align.min_overlap = options.depth_odometry_min_overlap;
+  align.information_scale = options.depth_odometry_information_scale;
+  align.huber_delta = options.huber_delta;
+  std::vector<depth_odometry::AlignResult> aligned(tasks.size());
+  tbb::parallel_for(std::size_t(0), tasks.size(), [&](std::size_t k) {
+    const auto [s, f] = tasks[k];
+    const Rigid3d guess = st.poses[s][f].pose().inverse() * st.poses[s][f + 1].pose();
+    aligned[k] = depth_odometry::align_depth_grids(grids[s][f], grids[s][f + 1], guess, align);
+  });
+  // Huber on the whitened 6-vector: sqrt of chi2(6) 95%.
+  graph.depth_huber = std::make_unique<ceres::HuberLoss>(3.548);
+  for (std::size_t k = 0; k < tasks.size(); ++k) {
+    if (!aligned[k].ok) {
+      ++graph.depth_pairs_rejected;
+      continue;
+    }
+    const auto [s, f] = tasks[k];
+    const PoseBlock measured = PoseBlock::from(aligned[k].a_from_b);
+    const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> root = depth_odometry::information_sqrt(aligned[k].information);
+    graph.blocks[kDepthOdometry].push_back(graph.problem->AddResidualBlock(
+        tf::RelativePoseCost::create(measured.q, measured.t, root.data()), graph.depth_huber.get(),
+        st.poses[s][f].q, st.poses[s][f].t, st.poses[s][f + 1].q, st.poses[s][f + 1].t));
+    ++graph.depth_pairs;
   }
 }
 

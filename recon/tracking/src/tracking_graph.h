@@ -5,6 +5,7 @@
 //   add_regularisation_factors  Eq. 2 and the priors on T_u and T_c
 //   add_shared_wobble_factors   beyond the paper (tracking.h)
 //   add_velocity_factors        Eq. 3
+//   add_depth_odometry_factors  beyond the paper, optional (tracking.h)
 //   fix_gauge                   manifolds, the gauge and the constant blocks
 //   solve_tracking_graph        Eq. 4 (Levenberg-Marquardt)
 //   extract_tracking_result     poses, axis, extrinsics and azimuths of the solution
@@ -61,7 +62,7 @@ struct TrackingState {
 };
 
 // The Ceres problem with the blocks of each kind of factor (for the cost of each term).
-enum FactorKind { kObservation, kRegularisation, kVelocity, kPriors, kSharedWobble, kFactorKinds };
+enum FactorKind { kObservation, kRegularisation, kVelocity, kPriors, kSharedWobble, kDepthOdometry, kFactorKinds };
 
 struct FactorGraph {
   FactorGraph();
@@ -70,6 +71,8 @@ struct FactorGraph {
   std::unique_ptr<ceres::HuberLoss> huber;
   std::array<std::vector<ceres::ResidualBlockId>, kFactorKinds> blocks;
   int shared_wobble_links = 0;
+  int depth_pairs = 0, depth_pairs_rejected = 0;  // add_depth_odometry_factors
+  std::unique_ptr<ceres::HuberLoss> depth_huber;
   // The Schur solvers' elimination order (fix_gauge, track.schur_ordering=landmarks); null = Ceres' own.
   std::shared_ptr<ceres::ParameterBlockOrdering> schur_ordering;
 
@@ -88,6 +91,11 @@ void add_observation_factors(FactorGraph& graph, TrackingState& state, const Sca
 void add_regularisation_factors(FactorGraph& graph, TrackingState& state, const TrackingOptions& options);
 void add_shared_wobble_factors(FactorGraph& graph, TrackingState& state, const TrackingOptions& options);
 void add_velocity_factors(FactorGraph& graph, TrackingState& state, const TrackingOptions& options);
+// Beyond the paper (track.depth_odometry; depth_odometry.h): the ICP between consecutive frames of
+// each active camera, started from the state's poses, as relative-pose factors. Uses the front
+// end's depth grids, or reads the depth images when the front end kept none.
+void add_depth_odometry_factors(FactorGraph& graph, TrackingState& state, const ScanIndex& scan,
+                                const FrontendResult& frontend, const TrackingOptions& options);
 void fix_gauge(FactorGraph& graph, TrackingState& state, const TrackingOptions& options);
 
 ceres::Solver::Summary solve_tracking_graph(FactorGraph& graph, const TrackingOptions& options,

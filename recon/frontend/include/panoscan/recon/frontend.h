@@ -28,6 +28,7 @@
 #include "panoscan/core/geometry.h"
 #include "panoscan/core/rigid_ransac.h"
 #include "panoscan/core/scan.h"
+#include "panoscan/recon/depth_grid.h"
 
 namespace panoscan {
 
@@ -94,6 +95,9 @@ struct FrontendOptions {
   std::uint64_t seed = 1;
   int threads = 0;           // 0 = all cores
   std::vector<int> sensors;  // sensors to use (empty = all)
+  // Block size of the depth grid kept per frame for the tracking's depth odometry (depth_grid.h);
+  // 0 = none. Not a config key of its own: track.depth_odometry sets it.
+  int depth_grid_block = 0;
 
   void check(const std::string& origin = "<frontend options>") const;
 };
@@ -163,6 +167,8 @@ struct FrontendResult {
   // Same-camera and loop pairs matched by projection, and those whose sample did not verify
   // (matched brute force).
   int guided_pairs = 0, guided_fallbacks = 0;
+  // Per sensor, per frame: the depth grid (FrontendOptions::depth_grid_block; empty when 0).
+  std::vector<std::vector<DepthGrid>> depth_grids;
   double feature_ms_per_frame = 0;  // extraction (wall time / frames)
   double matching_ms_per_frame = 0;
   double total_seconds = 0;

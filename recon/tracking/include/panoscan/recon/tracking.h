@@ -119,6 +119,15 @@ struct TrackingOptions {
   double wobble_rate_std_deg_s = 8.0;        // track.wobble_rate_std_deg_s
   double wobble_rate_std_m_s = 0.08;         // track.wobble_rate_std_m_s
   double same_time_s = 1e-3;                 // track.same_time_s: frames closer in time share one azimuth
+  // Depth odometry (beyond the paper; recon/tracking/src/depth_odometry.h): point-to-plane ICP between
+  // consecutive frames of each camera as a relative-pose factor weighted by the ICP's information,
+  // so that frames that see only a plain wall or ceiling are held by their depth as well as by
+  // Eq. 2-3. Not in ba-only mode (Eq. 1 alone). What it buys: recon/tracking/README.md.
+  bool depth_odometry = false;                    // track.depth_odometry
+  int depth_odometry_block_px = 4;                // track.depth_odometry_block_px: pixels per grid sample side
+  double depth_odometry_information_scale = 1.0;  // track.depth_odometry_information_scale
+  double depth_odometry_max_distance_m = 0.10;    // track.depth_odometry_max_distance_m: first pairing gate
+  double depth_odometry_min_overlap = 0.25;       // track.depth_odometry_min_overlap: inliers / samples
   double huber_delta = 2.796;                // track.huber_delta: on the whitened residual (sqrt of chi2(3) 95%)
   double depth_noise_coefficient = 9.49e-4;  // track.depth_noise_coefficient: sigma_d = c d^2, ARCHITECTURE.md §4.1
   int max_iterations = 100;                  // track.max_iterations
@@ -149,8 +158,11 @@ struct TrackingStats {
   int iterations = 0;
   double initial_cost = 0, final_cost = 0;
   // The cost of each term (Ceres' 1/2 sum of squares, Huber applied): observation (Eq. 1),
-  // regularisation (Eq. 2), velocity (Eq. 3), the priors on T_u and T_c, the shared wobble.
-  std::array<double, 5> initial_term_costs{}, final_term_costs{};
+  // regularisation (Eq. 2), velocity (Eq. 3), the priors on T_u and T_c, the shared wobble, the depth odometry.
+  std::array<double, 6> initial_term_costs{}, final_term_costs{};
+  // Depth odometry: consecutive frame pairs aligned and used as factors, and those left out.
+  int depth_pairs = 0, depth_pairs_rejected = 0;
+  double depth_odometry_seconds = 0;
   int shared_wobble_links = 0;
   bool converged = false;   // Ceres reported CONVERGENCE and every pose is finite
   std::string termination;  // Ceres' message

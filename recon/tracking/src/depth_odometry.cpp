@@ -1,0 +1,169 @@
+// Projective point-to-plane ICP between the depth grids of consecutive frames (depth_odometry.h).
+#include "depth_odometry.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <Eigen/Dense>
+
+namespace panoscan::depth_odometry {
+
+namespace {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+// The grid's samples and, where its four neighbours lie on the same surface, their unit normals
+// (facing the camera; zero where undefined).
+struct SurfaceGrid {
+  int width = 0, height = 0;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector3d> normals;
+  std::vector<char> valid, has_normal;
+};
+
+bool same_surface(double z, double z_neighbour, double c) {
+  return z_neighbour > 0.0 && std::abs(z_neighbour - z) <= std::max(0.1 * z, 6.0 * c * z * z);
+}
+
+SurfaceGrid surface_grid(const DepthGrid& grid, double c) {
+  SurfaceGrid s;
+  s.width = grid.depth.width;
+  s.height = grid.depth.height;
+  const std::size_t n = std::size_t(s.width) * s.height;
+  s.points.assign(n, Eigen::Vector3d::Zero());
+  s.normals.assign(n, Eigen::Vector3d::Zero());
+  s.valid.assign(n, 0);
+  s.has_normal.assign(n, 0);
+  for (int j = 0; j < s.height; ++j)
+    for (int i = 0; i < s.width; ++i)
+      if (grid.depth.at(i, j) > 0.0f) {
+        s.points[std::size_t(j) * s.width + i] = grid.point(i, j);
+        s.valid[std::size_t(j) * s.width + i] = 1;
+      }
+  for (int j = 1; j + 1 < s.height; ++j)
+    for (int i = 1; i + 1 < s.width; ++i) {
+      const std::size_t k = std::size_t(j) * s.width + i;
+      if (!s.valid[k]) continue;
+      const double z = s.points[k].z();
+      const std::size_t left = k - 1, right = k + 1, up = k - s.width, down = k + s.width;
+      bool ok = true;
+      for (std::size_t nb : {left, right, up, down}) ok = ok && s.valid[nb] && same_surface(z, s.points[nb].z(), c);
+      if (!ok) continue;
+      Eigen::Vector3d normal = (s.points[right] - s.points[left]).cross(s.points[down] - s.points[up]);
+      const double norm = normal.norm();
+      if (!(norm > 0.0)) continue;
+      normal /= norm;
+      if (normal.dot(s.points[k]) > 0.0) normal = -normal;
+      s.normals[k] = normal;
+      s.has_normal[k] = 1;
+    }
+  return s;
+}
+
+struct Linearisation {
+  Matrix6d hessian = Matrix6d::Zero();
+  Vector6d gradient = Vector6d::Zero();
+  int inliers = 0;
+  double whitened_sq = 0.0;
+};
+
+// The normal equations of the point-to-plane residuals at a_from_b, pairs within the gate of
+// iteration `iteration` (the gate halves from max_distance_m down to 4 sigma + one block's footprint).
+Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, const std::vector<Eigen::Vector3d>& b,
+                        const Rigid3d& a_from_b, int iteration, const AlignOptions& o) {
+  Linearisation lin;
+  const Eigen::Matrix3d rotation = a_from_b.linear();
+  const double c = o.depth_noise_coefficient;
+  const double coarse_gate = o.max_distance_m * std::pow(0.5, iteration);
+  for (const Eigen::Vector3d& p : b) {
+    const Eigen::Vector3d moved = a_from_b * p;
+    if (!(moved.z() > 0.0)) continue;
+    const int u = int(std::lround(grid_a.fx * moved.x() / moved.z() + grid_a.cx));
+    const int v = int(std::lround(grid_a.fy * moved.y() / moved.z() + grid_a.cy));
+    if (u < 0 || v < 0 || u >= a.width || v >= a.height) continue;
+    const std::size_t k = std::size_t(v) * a.width + u;
+    if (!a.has_normal[k]) continue;
+    const Eigen::Vector3d& q = a.points[k];
+    const Eigen::Vector3d& n = a.normals[k];
+    const double sigma_q = c * q.z() * q.z(), sigma_p = c * p.z() * p.z();
+    const double sigma = std::sqrt(sigma_q * sigma_q + sigma_p * sigma_p);
+    const double footprint = q.z() / grid_a.fx;
+    const double gate = std::max(coarse_gate, 4.0 * sigma + footprint);
+    const Eigen::Vector3d diff = moved - q;
+    if (diff.squaredNorm() > gate * gate) continue;
+    const double r = n.dot(diff) / sigma;
+    const double weight = std::abs(r) <= o.huber_delta ? 1.0 : o.huber_delta / std::abs(r);
+    const Eigen::Vector3d n_b = rotation.transpose() * n;  // the normal in b's frame
+    Vector6d jacobian;
+    jacobian.head<3>() = p.cross(n_b) / sigma;  // d r / d omega (X <- X exp(omega, v))
+    jacobian.tail<3>() = n_b / sigma;           // d r / d v
+    lin.hessian.noalias() += weight * jacobian * jacobian.transpose();
+    lin.gradient.noalias() += weight * jacobian * r;
+    lin.whitened_sq += r * r;
+    ++lin.inliers;
+  }
+  return lin;
+}
+
+}  // namespace
+
+AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigid3d& a_from_b_guess,
+                              const AlignOptions& o) {
+  AlignResult result;
+  if (a.empty() || b.empty()) {
+    result.reason = "no depth grid";
+    return result;
+  }
+  const SurfaceGrid target = surface_grid(a, o.depth_noise_coefficient);
+  std::vector<Eigen::Vector3d> source;
+  for (int j = 0; j < b.depth.height; ++j)
+    for (int i = 0; i < b.depth.width; ++i)
+      if (b.depth.at(i, j) > 0.0f) source.push_back(b.point(i, j));
+  result.samples = int(source.size());
+
+  Rigid3d a_from_b = a_from_b_guess;
+  int iteration = 0;
+  for (; iteration < o.max_iterations; ++iteration) {
+    const Linearisation lin = linearise(target, a.intrinsics, source, a_from_b, iteration, o);
+    if (lin.inliers < 6) break;
+    // Gauss-Newton with a whisper of damping: a plain wall leaves directions without information.
+    Matrix6d damped = lin.hessian;
+    damped.diagonal().array() += 1e-9 * lin.hessian.trace() / 6.0 + 1e-12;
+    const Vector6d delta = -damped.ldlt().solve(lin.gradient);
+    if (!delta.allFinite()) break;
+    Rigid3d step = Rigid3d::Identity();
+    step.linear() = so3_exp(delta.head<3>());
+    step.translation() = delta.tail<3>();
+    a_from_b = a_from_b * step;
+    if (delta.head<3>().norm() < 1e-7 && delta.tail<3>().norm() < 1e-7) break;
+  }
+  result.iterations = iteration;
+  // The information at the solution, with the final (tightest) gate.
+  const Linearisation final_lin = linearise(target, a.intrinsics, source, a_from_b, o.max_iterations + 64, o);
+  result.inliers = final_lin.inliers;
+  result.a_from_b = a_from_b;
+  result.information = o.information_scale * final_lin.hessian;
+  result.whitened_rms = final_lin.inliers > 0 ? std::sqrt(final_lin.whitened_sq / final_lin.inliers) : 0.0;
+
+  const Rigid3d moved = a_from_b_guess.inverse() * a_from_b;
+  if (result.inliers < o.min_inliers || result.inliers < o.min_overlap * result.samples) {
+    result.reason = "too little overlap";
+  } else if (rad2deg(rotation_angle(moved.linear())) > o.max_step_deg || moved.translation().norm() > o.max_step_m) {
+    result.reason = "moved too far from the guess";
+  } else if (!result.a_from_b.matrix().allFinite() || !result.information.allFinite()) {
+    result.reason = "not finite";
+  } else {
+    result.ok = true;
+  }
+  return result;
+}
+
+Eigen::Matrix<double, 6, 6> information_sqrt(const Eigen::Matrix<double, 6, 6>& information) {
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(0.5 * (information + information.transpose()));
+  const Vector6d root = eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+  return root.asDiagonal() * eigen.eigenvectors().transpose();
+}
+
+}  // namespace panoscan::depth_odometry

@@ -1,0 +1,65 @@
+// Internal to panoscan_recon_tracking (and its tests): depth odometry between consecutive frames of
+// one camera, the measurement of the optional depth factor (track.depth_odometry; beyond the paper).
+//
+// Why: the paper's graph carries a frame that sees only a plain wall or ceiling by Eq. 2-3 alone
+// (the rotator model). The depth of such a frame still constrains its pose: a wall fixes the
+// rotation about every axis in its plane (the turn about the vertical axis among them) and the
+// translation along its normal. Point-to-plane ICP between consecutive frames measures exactly
+// those directions and, through its Gauss-Newton Hessian, says which directions it does not
+// measure (the slide along the wall, the turn about its normal get no information).
+//
+// The alignment: projective point-to-plane ICP (as in KinectFusion) on the block-mean grids of
+// depth_grid.h. Frame b's samples are moved by the current a_from_b, projected into a's grid, and
+// paired with the sample there and its normal (central differences over the neighbouring blocks).
+// The residual n . (X p - q) is whitened by the depth noise of both samples (sigma_z = c z^2 each)
+// and Huber-weighted; a pair is dropped beyond a 3-D distance gate that shrinks from max_distance_m
+// to a few sigma plus one block's footprint. Gauss-Newton steps X <- X exp(delta), delta = (omega,
+// v) applied in b's frame, until the step is below 1e-7.
+//
+// The information: H = sum_k w_k J_k^T J_k / sigma_k^2 at the solution, in the (omega, v) order
+// of a right perturbation, times information_scale. Summing over every block treats their errors
+// as independent, which the disparity quantisation (a staircase correlated along the surface)
+// breaks: information_scale < 1 accounts for that (its default: recon/tracking/README.md,
+// "Depth odometry").
+#pragma once
+
+#include <string>
+
+#include <Eigen/Core>
+
+#include "panoscan/core/geometry.h"
+#include "panoscan/recon/depth_grid.h"
+
+namespace panoscan::depth_odometry {
+
+struct AlignOptions {
+  double depth_noise_coefficient = 9.49e-4;  // sigma_z = c z^2 per sample (ARCHITECTURE.md §4.1)
+  double max_distance_m = 0.10;              // the first iterations' 3-D pairing gate
+  int max_iterations = 30;
+  double huber_delta = 2.796;       // on the whitened residual
+  double min_overlap = 0.25;        // inliers / b's valid samples, below which the pair is not used
+  int min_inliers = 50;             // and at least this many
+  double max_step_deg = 5.0;        // the solution may move this far from the guess (a larger jump: lost)
+  double max_step_m = 0.20;
+  double information_scale = 1.0;   // multiplies the Hessian (see above)
+};
+
+struct AlignResult {
+  bool ok = false;
+  std::string reason;  // why not ok
+  Rigid3d a_from_b = Rigid3d::Identity();
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();  // (omega, v), right perturbation
+  int samples = 0, inliers = 0, iterations = 0;
+  double whitened_rms = 0.0;  // RMS of the whitened residuals of the inliers
+};
+
+// Aligns grid b to grid a (both of one camera: same intrinsics and block), starting from
+// a_from_b_guess.
+AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigid3d& a_from_b_guess,
+                              const AlignOptions& options);
+
+// The rows S with S^T S = information (eigen-decomposition; negative eigenvalues from rounding are
+// clipped to 0): the factor's residual is S (rotation vector, translation) of the error transform.
+Eigen::Matrix<double, 6, 6> information_sqrt(const Eigen::Matrix<double, 6, 6>& information);
+
+}  // namespace panoscan::depth_odometry

@@ -1,0 +1,180 @@
+// The depth odometry of the tracking (recon/tracking/src/depth_odometry.h; beyond the paper) on
+// depth images of planes computed in closed form, where the true a_from_b is known: the ICP
+// recovers it from a guess a degree and centimetres off, with and without disparity-like noise;
+// in front of a single wall its information says which three directions the wall observes and
+// which three it does not; frames that do not overlap are refused, not aligned.
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "depth_odometry.h"
+#include "panoscan/core/camera.h"
+#include "panoscan/core/random.h"
+#include "panoscan/recon/depth_grid.h"
+
+namespace panoscan {
+namespace {
+
+constexpr double kNoiseCoefficient = 9.49e-4;  // ARCHITECTURE.md §4.1 (Handa)
+
+// A plane n . x = offset in world coordinates.
+struct Plane {
+  Eigen::Vector3d normal;
+  double offset;
+};
+
+// z-depth of the nearest plane along each pixel's ray; `noise` adds a quantised disparity error
+// like the simulator's (Gaussian disparity noise, then rounding to whole disparity units).
+ImageF32 render_planes(const std::vector<Plane>& planes, const Rigid3d& world_from_cam, const PinholeIntrinsics& in,
+                       RandomStream* noise) {
+  ImageF32 depth(in.width, in.height, 1, 0.0f);
+  for (int y = 0; y < in.height; ++y)
+    for (int x = 0; x < in.width; ++x) {
+      const Eigen::Vector3d ray_cam((x - in.cx) / in.fx, (y - in.cy) / in.fy, 1.0);
+      const Eigen::Vector3d origin = world_from_cam.translation(), ray = world_from_cam.linear() * ray_cam;
+      double z = std::numeric_limits<double>::infinity();
+      for (const Plane& p : planes) {
+        const double along = p.normal.dot(ray);
+        if (std::abs(along) < 1e-12) continue;
+        const double s = (p.offset - p.normal.dot(origin)) / along;  // ray_cam has z = 1: s is the z-depth
+        if (s > 0.0) z = std::min(z, s);
+      }
+      if (!std::isfinite(z) || z > 8.0) continue;
+      if (noise) {
+        const double disparity = 351.3 / z + noise->normal() / 6.0;
+        z = 351.3 / std::floor(disparity + 0.5);
+      }
+      depth.at(x, y) = float(z);
+    }
+  return depth;
+}
+
+// A 4.5 x 2.5 x 6.5 m box around the origin (y down: the floor at y = 1.3).
+std::vector<Plane> room() {
+  return {{{1, 0, 0}, 2.5},  {{1, 0, 0}, -2.0}, {{0, 1, 0}, 1.3},
+          {{0, 1, 0}, -1.2}, {{0, 0, 1}, 3.5},  {{0, 0, 1}, -3.0}};
+}
+
+// The rotator's step between consecutive frames of one camera: 6 deg about the vertical (y) axis
+// through a point 10 cm behind the camera, plus a little wobble.
+Rigid3d rotator_step() {
+  const Rigid3d about_axis = make_rigid(so3_exp(Eigen::Vector3d(0, 0.10472, 0)), Eigen::Vector3d::Zero());
+  const Rigid3d lever = make_rigid(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, -0.10));
+  const Rigid3d wobble = make_rigid(so3_exp(Eigen::Vector3d(0.004, 0, -0.003)), Eigen::Vector3d(0.001, -0.002, 0));
+  return lever * about_axis * lever.inverse() * wobble;
+}
+
+double angle_deg(const Rigid3d& a, const Rigid3d& b) {
+  return rad2deg(rotation_angle(a.linear().transpose() * b.linear()));
+}
+
+struct Aligned {
+  depth_odometry::AlignResult result;
+  Rigid3d truth;
+};
+
+Aligned align_in_room(RandomStream* noise) {
+  const PinholeIntrinsics in = PinholeIntrinsics::primesense(320, 240);
+  const Rigid3d world_from_a = make_rigid(so3_exp(Eigen::Vector3d(0, 0.3, 0)), Eigen::Vector3d(0.2, 0.1, 0.0));
+  const Rigid3d a_from_b = rotator_step();
+  const Rigid3d world_from_b = world_from_a * a_from_b;
+  const DepthGrid a = make_depth_grid(render_planes(room(), world_from_a, in, noise), in, 4, kNoiseCoefficient);
+  const DepthGrid b = make_depth_grid(render_planes(room(), world_from_b, in, noise), in, 4, kNoiseCoefficient);
+  // The guess: 1 deg and 2 cm off.
+  const Rigid3d guess = a_from_b * make_rigid(so3_exp(Eigen::Vector3d(0.01, -0.012, 0.008)),
+                                              Eigen::Vector3d(0.012, -0.01, 0.012));
+  depth_odometry::AlignOptions options;
+  options.depth_noise_coefficient = kNoiseCoefficient;
+  return {depth_odometry::align_depth_grids(a, b, guess, options), a_from_b};
+}
+
+TEST(DepthOdometry, RecoversTheStepBetweenNoiselessFrames) {
+  const Aligned aligned = align_in_room(nullptr);
+  ASSERT_TRUE(aligned.result.ok) << aligned.result.reason;
+  EXPECT_LT(angle_deg(aligned.result.a_from_b, aligned.truth), 0.01);
+  EXPECT_LT((aligned.result.a_from_b.translation() - aligned.truth.translation()).norm(), 0.5e-3);
+  EXPECT_GT(aligned.result.inliers, 0.8 * aligned.result.samples);
+}
+
+TEST(DepthOdometry, RecoversTheStepThroughQuantisedNoisyDepth) {
+  RandomStream noise(5, 0, 0, RandomPurpose::kGeneric);
+  const Aligned aligned = align_in_room(&noise);
+  ASSERT_TRUE(aligned.result.ok) << aligned.result.reason;
+  EXPECT_LT(angle_deg(aligned.result.a_from_b, aligned.truth), 0.05);
+  EXPECT_LT((aligned.result.a_from_b.translation() - aligned.truth.translation()).norm(), 2e-3);
+  // The whitened residuals are of the noise's size (sigma_z of both samples), not of a misfit.
+  EXPECT_LT(aligned.result.whitened_rms, 1.5);
+}
+
+TEST(DepthOdometry, AWallObservesThreeDirectionsAndTheInformationSaysWhich) {
+  // Facing one wall (z = 2.5) that fills the view: it fixes the translation along its normal (z)
+  // and the rotations about the in-plane axes (x, y); the slide along x, y and the turn about z
+  // are unobserved.
+  const PinholeIntrinsics in = PinholeIntrinsics::primesense(320, 240);
+  const std::vector<Plane> wall = {{{0, 0, 1}, 2.5}};
+  const Rigid3d world_from_a = Rigid3d::Identity();
+  const Rigid3d a_from_b = make_rigid(so3_exp(Eigen::Vector3d(0, 0.05, 0)), Eigen::Vector3d(0.01, 0, 0.02));
+  const DepthGrid a = make_depth_grid(render_planes(wall, world_from_a, in, nullptr), in, 4, kNoiseCoefficient);
+  const DepthGrid b = make_depth_grid(render_planes(wall, world_from_a * a_from_b, in, nullptr), in, 4, kNoiseCoefficient);
+  depth_odometry::AlignOptions options;
+  const depth_odometry::AlignResult result = depth_odometry::align_depth_grids(a, b, a_from_b, options);
+  ASSERT_TRUE(result.ok) << result.reason;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eigen(result.information);
+  const double largest = eigen.eigenvalues()(5);
+  // Three directions with (numerically) nothing, three with information.
+  for (int k = 0; k < 3; ++k) EXPECT_LT(eigen.eigenvalues()(k), 1e-9 * largest) << k;
+  for (int k = 3; k < 6; ++k) EXPECT_GT(eigen.eigenvalues()(k), 1e-4 * largest) << k;
+  // The unobserved directions are the in-plane ones: in b's frame (omega, v), the turn about the
+  // wall's normal and the slides along the wall (the normal is z in a; b is turned 3 deg).
+  const Eigen::Vector3d normal_b = a_from_b.linear().transpose() * Eigen::Vector3d::UnitZ();
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Matrix<double, 6, 1> direction = eigen.eigenvectors().col(k);
+    // A null direction turns about the normal only and slides only within the wall's plane.
+    EXPECT_LT((direction.head<3>() - direction.head<3>().dot(normal_b) * normal_b).norm(),
+              0.05 * direction.norm() + 1e-9)
+        << k;
+  }
+  // The observed ones are exact: the ICP stays where the guess was (the truth).
+  EXPECT_LT(angle_deg(result.a_from_b, a_from_b), 1e-3);
+}
+
+TEST(DepthOdometry, FramesThatDoNotOverlapAreRefused) {
+  const PinholeIntrinsics in = PinholeIntrinsics::primesense(320, 240);
+  const Rigid3d world_from_a = Rigid3d::Identity();
+  const Rigid3d a_from_b = make_rigid(so3_exp(Eigen::Vector3d(0, 1.7, 0)), Eigen::Vector3d::Zero());  // ~97 deg
+  const DepthGrid a = make_depth_grid(render_planes(room(), world_from_a, in, nullptr), in, 4, kNoiseCoefficient);
+  const DepthGrid b = make_depth_grid(render_planes(room(), world_from_a * a_from_b, in, nullptr), in, 4, kNoiseCoefficient);
+  const depth_odometry::AlignResult result = depth_odometry::align_depth_grids(a, b, a_from_b, {});
+  EXPECT_FALSE(result.ok);
+  EXPECT_FALSE(result.reason.empty());
+  // An empty grid is refused by name.
+  EXPECT_FALSE(depth_odometry::align_depth_grids(DepthGrid{}, b, a_from_b, {}).ok);
+}
+
+TEST(DepthGrid, BlocksAcrossADepthEdgeAreDropped) {
+  // Left half at 1 m, right half at 3 m, the edge inside block column 10 of a 4-px grid.
+  const PinholeIntrinsics in = PinholeIntrinsics::primesense(80, 40);
+  ImageF32 depth(80, 40, 1, 1.0f);
+  for (int y = 0; y < 40; ++y)
+    for (int x = 42; x < 80; ++x) depth.at(x, y) = 3.0f;
+  depth.at(3, 3) = 0.0f;  // one invalid pixel empties its block
+  const DepthGrid grid = make_depth_grid(depth, in, 4, kNoiseCoefficient);
+  ASSERT_EQ(grid.depth.width, 20);
+  ASSERT_EQ(grid.depth.height, 10);
+  EXPECT_FLOAT_EQ(grid.depth.at(9, 5), 1.0f);
+  EXPECT_EQ(grid.depth.at(10, 5), 0.0f);  // pixels 40-43: two at 1 m, two at 3 m
+  EXPECT_FLOAT_EQ(grid.depth.at(11, 5), 3.0f);
+  EXPECT_EQ(grid.depth.at(0, 0), 0.0f);
+  // The grid's intrinsics put a block's sample at its centre pixel.
+  const Eigen::Vector3d point = grid.point(11, 5);
+  const Eigen::Vector2d pixel = in.project(point);
+  EXPECT_NEAR(pixel.x(), 4 * 11 + 1.5, 1e-9);
+  EXPECT_NEAR(pixel.y(), 4 * 5 + 1.5, 1e-9);
+}
+
+}  // namespace
+}  // namespace panoscan
