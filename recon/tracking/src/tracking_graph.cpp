@@ -10,6 +10,10 @@
 #include <algorithm>
 #include <cmath>
 #include <thread>
+#include <unordered_map>
+
+#include <Eigen/OrderingMethods>
+#include <Eigen/SparseCore>
 
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
@@ -398,20 +402,27 @@ namespace {
 // share no factor with a landmark), so the eliminated blocks have two sizes and Ceres falls back to
 // its dynamic-size Schur eliminator (56% of the solve's instructions on SO-1 640x480, n = 16); with
 // exactly the landmarks it uses the <3,3,3> specialisation (the solve: 18.9e9 -> 13.0e9
-// instructions, the same iterations and cost). Ceres orders the blocks of one group by address, so
-// each remaining block gets a group of its own, in the graph's order (frames in time order, then
-// T_c, T_u, T_r): the order does not depend on where the allocator put them. (One group for all of
-// them lets CAMD choose the order, 12.2e9, but from the blocks' addresses.)
+// instructions, the same iterations and cost).
+// The remaining blocks form the reduced camera system that the sparse Cholesky factorises. Ceres
+// orders the blocks of one group by address, so one group for all of them would let CAMD reduce
+// the fill but from an order that depends on where the allocator put the blocks (two solves of one
+// scan differed). Instead this function computes the fill-reducing order itself: approximate minimum
+// degree (Eigen's AMD) on the block graph of the reduced system, built in a fixed order (frames in
+// time order, then T_c, T_u, T_r), and gives each block a group in that order, which Ceres keeps.
 std::shared_ptr<ceres::ParameterBlockOrdering> landmarks_first_ordering(TrackingState& st, ceres::Problem& problem) {
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-  int group = 1;
-  auto add = [&](double* block) {
-    if (!problem.HasParameterBlock(block) || ordering->IsMember(block)) return;
-    ordering->AddElementToGroup(block, group++);
-  };
   for (auto& landmark : st.landmarks)
     if (problem.HasParameterBlock(landmark.data())) ordering->AddElementToGroup(landmark.data(), 0);
   if (ordering->NumElements() == 0) return nullptr;  // nothing to eliminate: Ceres' own choice
+
+  // The other blocks in the fixed order.
+  std::vector<double*> others;
+  std::unordered_map<const double*, int> other_index;
+  auto add = [&](double* block) {
+    if (!problem.HasParameterBlock(block) || ordering->IsMember(block) || other_index.count(block)) return;
+    other_index.emplace(block, int(others.size()));
+    others.push_back(block);
+  };
   for (const FrameNode& node : st.nodes) {
     add(st.poses[node.s][node.f].q);
     add(st.poses[node.s][node.f].t);
@@ -428,6 +439,58 @@ std::shared_ptr<ceres::ParameterBlockOrdering> landmarks_first_ordering(Tracking
   std::vector<double*> all;  // anything else, in the problem's (insertion) order
   problem.GetParameterBlocks(&all);
   for (double* block : all) add(block);
+
+  // The reduced system's block pattern: two blocks are coupled when a factor joins them, or when
+  // factors join each of them to one landmark (eliminating the landmark couples them). Residual
+  // blocks come in insertion order, so the pattern is built the same way every time.
+  std::unordered_map<const double*, int> landmark_index;
+  for (std::size_t j = 0; j < st.landmarks.size(); ++j) landmark_index.emplace(st.landmarks[j].data(), int(j));
+  std::vector<std::vector<int>> cliques(st.landmarks.size());  // first the landmarks' blocks, then the factors'
+  std::vector<ceres::ResidualBlockId> residuals;
+  problem.GetResidualBlocks(&residuals);
+  std::vector<double*> parameters;
+  std::vector<int> members;
+  for (const ceres::ResidualBlockId residual : residuals) {
+    problem.GetParameterBlocksForResidualBlock(residual, &parameters);
+    members.clear();
+    int landmark = -1;
+    for (double* block : parameters) {
+      if (auto it = landmark_index.find(block); it != landmark_index.end() && ordering->IsMember(block)) {
+        landmark = it->second;
+      } else if (auto jt = other_index.find(block); jt != other_index.end()) {
+        members.push_back(jt->second);
+      }
+    }
+    if (landmark >= 0)
+      cliques[std::size_t(landmark)].insert(cliques[std::size_t(landmark)].end(), members.begin(), members.end());
+    else if (members.size() > 1)
+      cliques.push_back(members);
+  }
+  // Many landmarks are seen by the same frames: each distinct set of coupled blocks once.
+  for (std::vector<int>& clique : cliques) {
+    std::sort(clique.begin(), clique.end());
+    clique.erase(std::unique(clique.begin(), clique.end()), clique.end());
+  }
+  std::sort(cliques.begin(), cliques.end());
+  cliques.erase(std::unique(cliques.begin(), cliques.end()), cliques.end());
+  const int n = int(others.size());
+  std::vector<std::vector<int>> coupled(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) coupled[std::size_t(i)].push_back(i);
+  for (const std::vector<int>& clique : cliques)
+    for (int a : clique) coupled[std::size_t(a)].insert(coupled[std::size_t(a)].end(), clique.begin(), clique.end());
+  std::vector<Eigen::Triplet<int>> pattern;
+  for (int a = 0; a < n; ++a) {
+    std::vector<int>& row = coupled[std::size_t(a)];
+    std::sort(row.begin(), row.end());
+    row.erase(std::unique(row.begin(), row.end()), row.end());
+    for (int b : row) pattern.emplace_back(a, b, 1);
+  }
+  Eigen::SparseMatrix<int> coupling(n, n);
+  coupling.setFromTriplets(pattern.begin(), pattern.end());
+  Eigen::AMDOrdering<int>::PermutationType elimination;
+  Eigen::AMDOrdering<int>()(coupling, elimination);  // indices()[k]: the block eliminated k-th
+  if (elimination.size() != n) throw Error("tracking: the AMD ordering lost blocks (internal error)");
+  for (int k = 0; k < n; ++k) ordering->AddElementToGroup(others[std::size_t(elimination.indices()[k])], 1 + k);
   return ordering;
 }
 
