@@ -397,6 +397,70 @@ void add_depth_odometry_factors(FactorGraph& graph, TrackingState& st, const Sca
 
 namespace {
 
+// The block pattern of the reduced camera system (what remains once the landmarks, group 0 of
+// `ordering`, are eliminated), over the blocks numbered by `other_index`: row a lists a and every
+// block coupled to it, sorted. Two blocks are coupled when a factor joins them, or when factors join
+// each of them to one landmark (eliminating the landmark couples them). Residual blocks come in
+// insertion order, so the pattern is built the same way every time.
+std::vector<std::vector<int>> reduced_system_coupling(const TrackingState& st, const ceres::Problem& problem,
+                                                      const ceres::ParameterBlockOrdering& ordering,
+                                                      const std::unordered_map<const double*, int>& other_index) {
+  std::unordered_map<const double*, int> landmark_index;
+  for (std::size_t j = 0; j < st.landmarks.size(); ++j) landmark_index.emplace(st.landmarks[j].data(), int(j));
+  std::vector<std::vector<int>> cliques(st.landmarks.size());  // first the landmarks' blocks, then the factors'
+  std::vector<ceres::ResidualBlockId> residuals;
+  problem.GetResidualBlocks(&residuals);
+  std::vector<double*> parameters;
+  std::vector<int> members;
+  for (const ceres::ResidualBlockId residual : residuals) {
+    problem.GetParameterBlocksForResidualBlock(residual, &parameters);
+    members.clear();
+    int landmark = -1;
+    for (double* block : parameters) {
+      if (auto it = landmark_index.find(block); it != landmark_index.end() && ordering.IsMember(block)) {
+        landmark = it->second;
+      } else if (auto jt = other_index.find(block); jt != other_index.end()) {
+        members.push_back(jt->second);
+      }
+    }
+    if (landmark >= 0)
+      cliques[std::size_t(landmark)].insert(cliques[std::size_t(landmark)].end(), members.begin(), members.end());
+    else if (members.size() > 1)
+      cliques.push_back(members);
+  }
+  // Many landmarks are seen by the same frames: each distinct set of coupled blocks once.
+  for (std::vector<int>& clique : cliques) {
+    std::sort(clique.begin(), clique.end());
+    clique.erase(std::unique(clique.begin(), clique.end()), clique.end());
+  }
+  std::sort(cliques.begin(), cliques.end());
+  cliques.erase(std::unique(cliques.begin(), cliques.end()), cliques.end());
+  std::vector<std::vector<int>> coupled(other_index.size());
+  for (std::size_t i = 0; i < coupled.size(); ++i) coupled[i].push_back(int(i));
+  for (const std::vector<int>& clique : cliques)
+    for (int a : clique) coupled[std::size_t(a)].insert(coupled[std::size_t(a)].end(), clique.begin(), clique.end());
+  for (std::vector<int>& row : coupled) {
+    std::sort(row.begin(), row.end());
+    row.erase(std::unique(row.begin(), row.end()), row.end());
+  }
+  return coupled;
+}
+
+// Approximate minimum degree (Eigen's AMDOrdering) of a symmetric pattern given as sorted rows: the
+// rows in the order to eliminate them.
+std::vector<int> amd_order(const std::vector<std::vector<int>>& coupled) {
+  const int n = int(coupled.size());
+  std::vector<Eigen::Triplet<int>> pattern;
+  for (int a = 0; a < n; ++a)
+    for (int b : coupled[std::size_t(a)]) pattern.emplace_back(a, b, 1);
+  Eigen::SparseMatrix<int> matrix(n, n);
+  matrix.setFromTriplets(pattern.begin(), pattern.end());
+  Eigen::AMDOrdering<int>::PermutationType elimination;
+  Eigen::AMDOrdering<int>()(matrix, elimination);  // indices()[k]: the row eliminated k-th
+  if (elimination.size() != n) throw Error("tracking: the AMD ordering lost blocks (internal error)");
+  return std::vector<int>(elimination.indices().data(), elimination.indices().data() + n);
+}
+
 // The landmarks eliminated first (group 0), then every other block. Ceres' automatic ordering takes
 // an independent set of the whole graph, which also picks up about half of the azimuth blocks (they
 // share no factor with a landmark), so the eliminated blocks have two sizes and Ceres falls back to
@@ -440,57 +504,9 @@ std::shared_ptr<ceres::ParameterBlockOrdering> landmarks_first_ordering(Tracking
   problem.GetParameterBlocks(&all);
   for (double* block : all) add(block);
 
-  // The reduced system's block pattern: two blocks are coupled when a factor joins them, or when
-  // factors join each of them to one landmark (eliminating the landmark couples them). Residual
-  // blocks come in insertion order, so the pattern is built the same way every time.
-  std::unordered_map<const double*, int> landmark_index;
-  for (std::size_t j = 0; j < st.landmarks.size(); ++j) landmark_index.emplace(st.landmarks[j].data(), int(j));
-  std::vector<std::vector<int>> cliques(st.landmarks.size());  // first the landmarks' blocks, then the factors'
-  std::vector<ceres::ResidualBlockId> residuals;
-  problem.GetResidualBlocks(&residuals);
-  std::vector<double*> parameters;
-  std::vector<int> members;
-  for (const ceres::ResidualBlockId residual : residuals) {
-    problem.GetParameterBlocksForResidualBlock(residual, &parameters);
-    members.clear();
-    int landmark = -1;
-    for (double* block : parameters) {
-      if (auto it = landmark_index.find(block); it != landmark_index.end() && ordering->IsMember(block)) {
-        landmark = it->second;
-      } else if (auto jt = other_index.find(block); jt != other_index.end()) {
-        members.push_back(jt->second);
-      }
-    }
-    if (landmark >= 0)
-      cliques[std::size_t(landmark)].insert(cliques[std::size_t(landmark)].end(), members.begin(), members.end());
-    else if (members.size() > 1)
-      cliques.push_back(members);
-  }
-  // Many landmarks are seen by the same frames: each distinct set of coupled blocks once.
-  for (std::vector<int>& clique : cliques) {
-    std::sort(clique.begin(), clique.end());
-    clique.erase(std::unique(clique.begin(), clique.end()), clique.end());
-  }
-  std::sort(cliques.begin(), cliques.end());
-  cliques.erase(std::unique(cliques.begin(), cliques.end()), cliques.end());
-  const int n = int(others.size());
-  std::vector<std::vector<int>> coupled(static_cast<std::size_t>(n));
-  for (int i = 0; i < n; ++i) coupled[std::size_t(i)].push_back(i);
-  for (const std::vector<int>& clique : cliques)
-    for (int a : clique) coupled[std::size_t(a)].insert(coupled[std::size_t(a)].end(), clique.begin(), clique.end());
-  std::vector<Eigen::Triplet<int>> pattern;
-  for (int a = 0; a < n; ++a) {
-    std::vector<int>& row = coupled[std::size_t(a)];
-    std::sort(row.begin(), row.end());
-    row.erase(std::unique(row.begin(), row.end()), row.end());
-    for (int b : row) pattern.emplace_back(a, b, 1);
-  }
-  Eigen::SparseMatrix<int> coupling(n, n);
-  coupling.setFromTriplets(pattern.begin(), pattern.end());
-  Eigen::AMDOrdering<int>::PermutationType elimination;
-  Eigen::AMDOrdering<int>()(coupling, elimination);  // indices()[k]: the block eliminated k-th
-  if (elimination.size() != n) throw Error("tracking: the AMD ordering lost blocks (internal error)");
-  for (int k = 0; k < n; ++k) ordering->AddElementToGroup(others[std::size_t(elimination.indices()[k])], 1 + k);
+  const std::vector<int> elimination = amd_order(reduced_system_coupling(st, problem, *ordering, other_index));
+  for (std::size_t k = 0; k < elimination.size(); ++k)
+    ordering->AddElementToGroup(others[std::size_t(elimination[k])], 1 + int(k));
   return ordering;
 }
 
