@@ -36,6 +36,8 @@ void TrackingOptions::check(const std::string& origin) const {
   require(depth_noise_coefficient > 0, "track.depth_noise_coefficient", "must be > 0");
   require(max_iterations >= 1 && max_iterations <= 10000, "track.max_iterations", "must be in [1, 10000]");
   require(function_tolerance > 0 && function_tolerance < 1, "track.function_tolerance", "must be in (0, 1)");
+  require(initial_trust_region_radius == 0.0 || (initial_trust_region_radius >= 1.0 && initial_trust_region_radius <= 1e16),
+          "track.initial_trust_region_radius", "must be 0 (automatic) or in [1, 1e16]");
   require(linear_solver == "sparse_schur" || linear_solver == "sparse_normal_cholesky" ||
               linear_solver == "iterative_schur" || linear_solver == "dense_schur",
           "track.linear_solver", "must be sparse_schur, dense_schur, iterative_schur or sparse_normal_cholesky");
@@ -126,6 +128,8 @@ TrackingOptions tracking_options_from_config(Config& config) {
   o.depth_noise_coefficient = config.get_double("track.depth_noise_coefficient", o.depth_noise_coefficient, 1e-6, 1.0);
   o.max_iterations = config.get_int("track.max_iterations", o.max_iterations, 1, 10000);
   o.function_tolerance = config.get_double("track.function_tolerance", o.function_tolerance, 1e-15, 0.5);
+  o.initial_trust_region_radius =
+      config.get_double("track.initial_trust_region_radius", o.initial_trust_region_radius, 0.0, 1e16);
   o.log_iterations = config.get_bool("track.log_iterations", o.log_iterations);
   o.linear_solver =
       config.get_string("track.linear_solver", o.linear_solver,

@@ -566,6 +566,12 @@ ceres::Solver::Summary solve_tracking_graph(FactorGraph& graph, const TrackingOp
   solver_options.num_threads =
       options.threads > 0 ? options.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   solver_options.function_tolerance = options.function_tolerance;
+  // track.initial_trust_region_radius (tracking.h): automatic = nearly Gauss-Newton from the start when
+  // Eq. 2 ties the frames to the rotation model, Ceres' default for bundle adjustment alone.
+  const bool regularised = !graph.blocks[kRegularisation].empty();
+  solver_options.initial_trust_region_radius = options.initial_trust_region_radius > 0 ? options.initial_trust_region_radius
+                                               : regularised                          ? 1e8
+                                                                                      : 1e4;
   solver_options.logging_type = ceres::SILENT;
   const bool schur = solver_options.linear_solver_type != ceres::SPARSE_NORMAL_CHOLESKY;
   if (schur && graph.schur_ordering) solver_options.linear_solver_ordering = graph.schur_ordering;

@@ -134,6 +134,15 @@ struct TrackingOptions {
   // track.function_tolerance: stop when an iteration lowers the cost by less than this fraction
   // (why 1e-4: recon/tracking/README.md, "Solver tolerance").
   double function_tolerance = 1e-4;
+  // track.initial_trust_region_radius: Levenberg-Marquardt's first radius; its damping is 1 / radius on the
+  // Jacobi-scaled normal equations. 0 (the default) = automatic: 1e8 when the graph has Eq. 2's factors,
+  // Ceres' 1e4 otherwise. With Eq. 2-3 the front end's chains start close to the solution, and 1e4 damped
+  // the weakly constrained directions (azimuths, wobble) for the first iterations while the radius tripled
+  // each step; 1e8 (nearly Gauss-Newton, still shrunk on a rejected step) halves the iterations at the
+  // same accuracy. Bundle adjustment alone (ba-only, handheld) is ill-conditioned along its weak directions,
+  // where strong first damping keeps it near the chains, so it keeps 1e4 (recon/tracking/README.md,
+  // "Solver speed").
+  double initial_trust_region_radius = 0.0;
   bool log_iterations = false;                 // track.log_iterations: one log line per LM iteration (cost, times)
   // track.linear_solver: sparse_schur | dense_schur | iterative_schur | sparse_normal_cholesky
   std::string linear_solver = "sparse_schur";
