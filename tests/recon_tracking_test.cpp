@@ -323,13 +323,18 @@ TEST_F(TrackingTest, TheLandmarksFirstOrderingEliminatesTheLandmarksAndReachesTh
   namespace tg = tracking_graph;
   TrackingOptions options = test_tracking_options();
   options.threads = 1;
-  tg::TrackingState state = tg::initialise_tracking_state(*scan_, *frontend_, options, nullptr);
+  // The graph up to the solve, as track_with_frontend builds it.
+  auto build_graph = [&](tg::TrackingState& state, tg::FactorGraph& graph) {
+    state = tg::initialise_tracking_state(*scan_, *frontend_, options, nullptr);
+    tg::add_observation_factors(graph, state, *scan_, *frontend_, options);
+    tg::add_regularisation_factors(graph, state, options);
+    tg::add_shared_wobble_factors(graph, state, options);
+    tg::add_velocity_factors(graph, state, options);
+    tg::fix_gauge(graph, state, options);
+  };
+  tg::TrackingState state;
   tg::FactorGraph graph;
-  tg::add_observation_factors(graph, state, *scan_, *frontend_, options);
-  tg::add_regularisation_factors(graph, state, options);
-  tg::add_shared_wobble_factors(graph, state, options);
-  tg::add_velocity_factors(graph, state, options);
-  tg::fix_gauge(graph, state, options);
+  build_graph(state, graph);
   ASSERT_TRUE(graph.schur_ordering);
   const ceres::ParameterBlockOrdering& ordering = *graph.schur_ordering;
   EXPECT_EQ(ordering.NumElements(), graph.problem->NumParameterBlocks());
@@ -340,13 +345,9 @@ TEST_F(TrackingTest, TheLandmarksFirstOrderingEliminatesTheLandmarksAndReachesTh
   // the same scan, its blocks elsewhere in memory, gets the same order (Ceres' own CAMD, given one
   // group, ordered by address and was not reproducible).
   {
-    tg::TrackingState again = tg::initialise_tracking_state(*scan_, *frontend_, options, nullptr);
+    tg::TrackingState again;
     tg::FactorGraph other;
-    tg::add_observation_factors(other, again, *scan_, *frontend_, options);
-    tg::add_regularisation_factors(other, again, options);
-    tg::add_shared_wobble_factors(other, again, options);
-    tg::add_velocity_factors(other, again, options);
-    tg::fix_gauge(other, again, options);
+    build_graph(again, other);
     ASSERT_TRUE(other.schur_ordering);
     int compared = 0, time_ordered = 0;
     int previous_group = -1;
