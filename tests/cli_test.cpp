@@ -253,4 +253,10 @@ TEST(Cli, ReconTrackOnAnUntexturedRoomIsCorrectOrRefused) {
     std::printf("  %s ATE %.2f mm\n", camera, rmse_mm);
     EXPECT_LT(rmse_mm, 10.0) << camera << ": a wrong trajectory was written with exit code 0";
   }
+  // recon track's default graph includes the depth odometry (beyond the paper), which holds the
+  // frames of plain wall by their depth: nearly every consecutive pair of a camera enters it.
+  const auto stats = panoscan::read_json_file(out + "/tracking_stats.json");
+  const int pairs = stats.at("depth_odometry").at("pairs").get<int>();
+  std::printf("  depth odometry: %d pairs, %d rejected\n", pairs, stats.at("depth_odometry").at("rejected").get<int>());
+  EXPECT_GT(pairs, 0);
 }

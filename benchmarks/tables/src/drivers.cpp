@@ -1,6 +1,10 @@
 #include "drivers.h"
 
+#include "panoscan/core/config.h"
+
 namespace panoscan::tables {
+
+void use_papers_tracking_graph(Config& config) { config.set("track.depth_odometry", "false"); }
 
 std::vector<TableDriver> all_drivers() {
   std::vector<TableDriver> drivers;

@@ -116,7 +116,9 @@ TableRun run_fig8(const TablesOptions& options) {
   TableRun run;
   std::string csv = "scan,n,frames,landmarks,ate_mm,stitched_rmse_mm,optimisation_s,frontend_s,iterations,converged\n";
 
-  TrackingOptions tracking;
+  Config config;
+  use_papers_tracking_graph(config);
+  TrackingOptions tracking = tracking_options_from_config(config);
   tracking.threads = options.threads;
   tracking.frontend.threads = options.threads;
   tracking.frontend.seed = options.seed;

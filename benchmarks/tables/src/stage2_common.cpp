@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "cache_lock.h"
+#include "drivers.h"
 #include "scene_catalog.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
@@ -39,6 +40,7 @@ Panorama cached_panorama(const std::string& label, const TablesOptions& options,
   config.set("panorama.height", std::to_string(preset.panorama_height));
   config.set("panorama.method", "tsa");
   if (options.threads > 0) config.set("threads", std::to_string(options.threads));
+  use_papers_tracking_graph(config);
   const PanoramaOptions panorama_options = panorama_options_from_config(config);
   const TrackingOptions tracking_options = tracking_options_from_config(config);
   config.check_all_used();

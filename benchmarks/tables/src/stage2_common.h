@@ -22,7 +22,8 @@ namespace panoscan::tables::stage2 {
 // changes it). Its world_from_pano is in the scene frame.
 Panorama ground_truth_panorama(const std::string& label, const TablesOptions& options);
 
-// The same from tracked poses (`recon track`'s defaults): stage 1 as a user runs it. Its
+// The same from tracked poses (the paper's graph: `recon track`'s defaults without the depth
+// odometry, use_papers_tracking_graph): stage 1 as a user runs it. Its
 // world_from_pano is re-expressed in the scene frame by aligning the tracked reference camera's
 // first frame with the truth (the tracker's gauge), so that it can be compared with the mesh; what
 // remains is the panorama's own tracking error. Cached as <scan key>_tracked_tsa_H<H>.

@@ -97,6 +97,7 @@ TableRun run_table1(const TablesOptions& options) {
   const std::vector<std::string> scans = scan_labels(options);
   Config config;
   config.set("threads", std::to_string(options.threads));
+  use_papers_tracking_graph(config);
   const TrackingOptions tracking = tracking_options_from_config(config);  // full mode, the paper's settings
 
   TsdfOptions tsdf;

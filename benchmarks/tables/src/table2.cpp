@@ -22,6 +22,7 @@
 
 #include "drivers.h"
 #include "tracking_eval.h"
+#include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/mesh_io.h"
 #include "panoscan/core/scan.h"
@@ -63,7 +64,9 @@ TableRun run_table2(const TablesOptions& options) {
   axis.unit = "deg";
   axis.decimals = 3;
   TableRun run;
-  TrackingOptions tracking;
+  Config config;
+  use_papers_tracking_graph(config);
+  TrackingOptions tracking = tracking_options_from_config(config);
   tracking.threads = options.threads;
   tracking.frontend.threads = options.threads;
   tracking.frontend.seed = options.seed;

@@ -214,7 +214,7 @@ void add_table4(const TablesOptions& options, bool tracked, TableRun& run) {
     run.tables.push_back(rmse);
     run.tables.push_back(seconds);
     run.notes.push_back(
-        "Tracked poses: each panorama from `recon track`'s defaults, placed in the scene frame by aligning the tracked "
+        "Tracked poses: each panorama tracked by the paper's graph (`recon track`'s defaults without the depth odometry), placed in the scene frame by aligning the tracked "
         "reference camera's first frame with the truth; the target's place in the pair's cloud comes from that "
         "alignment, so the table carries the panoramas' own tracking error (as the paper's "
         "Table 4 does). The reference row places the source by that alignment too (both scans' first frames "

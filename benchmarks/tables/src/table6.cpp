@@ -23,6 +23,7 @@ TableRun run_table6(const TablesOptions& options) {
   Config config;
   config.set("panorama.height", std::to_string(preset.panorama_height));
   config.set("threads", std::to_string(options.threads));
+  use_papers_tracking_graph(config);
   const SceneOptions scene_options = scene_options_from_config(config);
 
   eval::ResultTable table;

@@ -137,7 +137,14 @@ AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigi
     step.linear() = so3_exp(delta.head<3>());
     step.translation() = delta.tail<3>();
     a_from_b = a_from_b * step;
-    if (delta.head<3>().norm() < 1e-7 && delta.tail<3>().norm() < 1e-7) break;
+    // Converged once the gate has shrunk to its floor (below 1 mm the per-sample floor of 4 sigma +
+    // one block's footprint rules) and the step is a small fraction of the estimate's own standard
+    // deviation: its length in the information metric, sqrt(delta^T H delta), is in those units.
+    const bool gate_at_floor = o.max_distance_m * std::pow(0.5, iteration) <= 1e-3;
+    if (gate_at_floor && delta.dot(lin.hessian * delta) < o.converged_step_sigma * o.converged_step_sigma) {
+      ++iteration;
+      break;
+    }
   }
   result.iterations = iteration;
   // The information at the solution, with the final (tightest) gate.

@@ -1,5 +1,5 @@
 // Internal to panoscan_recon_tracking (and its tests): depth odometry between consecutive frames of
-// one camera, the measurement of the optional depth factor (track.depth_odometry; beyond the paper).
+// one camera, the measurement of the depth factor (track.depth_odometry, on by default; beyond the paper).
 //
 // Why: the paper's graph carries a frame that sees only a plain wall or ceiling by Eq. 2-3 alone
 // (the rotator model). The depth of such a frame still constrains its pose: a wall fixes the
@@ -14,7 +14,11 @@
 // The residual n . (X p - q) is whitened by the depth noise of both samples (sigma_z = c z^2 each)
 // and Huber-weighted; a pair is dropped beyond a 3-D distance gate that shrinks from max_distance_m
 // to a few sigma plus one block's footprint. Gauss-Newton steps X <- X exp(delta), delta = (omega,
-// v) applied in b's frame, until the step is below 1e-7.
+// v) applied in b's frame, until the gate has reached its floor and a step moves the estimate by less
+// than converged_step_sigma of its own standard deviation (sqrt(delta^T H delta)). Projective
+// association re-pairs samples as the pose moves, so the steps do not fall to zero: they settle into
+// a limit cycle of a few hundredths of a sigma, and a fixed tiny threshold (1e-7) ran most pairs to
+// max_iterations for nothing (recon/tracking/README.md, "Depth odometry", Cost).
 //
 // The information: H = sum_k w_k J_k^T J_k / sigma_k^2 at the solution, in the (omega, v) order
 // of a right perturbation, times information_scale. Summing over every block treats their errors
@@ -36,6 +40,8 @@ struct AlignOptions {
   double depth_noise_coefficient = 9.49e-4;  // sigma_z = c z^2 per sample (ARCHITECTURE.md §4.1)
   double max_distance_m = 0.10;              // the first iterations' 3-D pairing gate
   int max_iterations = 30;
+  // Converged when a step moves the estimate by less than this many of its standard deviations.
+  double converged_step_sigma = 0.1;
   double huber_delta = 2.796;       // on the whitened residual
   double min_overlap = 0.25;        // inliers / b's valid samples, below which the pair is not used
   int min_inliers = 50;             // and at least this many

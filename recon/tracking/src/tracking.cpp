@@ -239,6 +239,7 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   stats.shared_wobble_links = graph.shared_wobble_links;
   stats.depth_pairs = graph.depth_pairs;
   stats.depth_pairs_rejected = graph.depth_pairs_rejected;
+  stats.depth_icp_iterations = graph.depth_icp_iterations;
   stats.depth_odometry_seconds = depth_seconds;
   stats.extrinsics_observed = state.extrinsics_observed;
   stats.landmarks = int(state.tracks.size());
@@ -383,7 +384,13 @@ nlohmann::json stats_to_json(const TrackingStats& s) {
         {"final", s.final_term_costs}}},
       {"shared_wobble_links", s.shared_wobble_links},
       {"depth_odometry",
-       {{"pairs", s.depth_pairs}, {"rejected", s.depth_pairs_rejected}, {"seconds", s.depth_odometry_seconds}}},
+       {{"pairs", s.depth_pairs},
+        {"rejected", s.depth_pairs_rejected},
+        {"icp_iterations_per_pair",
+         s.depth_pairs + s.depth_pairs_rejected > 0
+             ? double(s.depth_icp_iterations) / double(s.depth_pairs + s.depth_pairs_rejected)
+             : 0.0},
+        {"seconds", s.depth_odometry_seconds}}},
       {"converged", s.converged},
       {"termination", s.termination},
       {"linear_solver", s.linear_solver},

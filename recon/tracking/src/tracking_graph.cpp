@@ -381,6 +381,7 @@ void add_depth_odometry_factors(FactorGraph& graph, TrackingState& st, const Sca
   // Huber on the whitened 6-vector: sqrt of chi2(6) 95%.
   graph.depth_huber = std::make_unique<ceres::HuberLoss>(3.548);
   for (std::size_t k = 0; k < tasks.size(); ++k) {
+    graph.depth_icp_iterations += aligned[k].iterations;
     if (!aligned[k].ok) {
       ++graph.depth_pairs_rejected;
       continue;

@@ -72,6 +72,7 @@ struct FactorGraph {
   std::array<std::vector<ceres::ResidualBlockId>, kFactorKinds> blocks;
   int shared_wobble_links = 0;
   int depth_pairs = 0, depth_pairs_rejected = 0;  // add_depth_odometry_factors
+  int depth_icp_iterations = 0;                   // summed over the aligned pairs
   std::unique_ptr<ceres::HuberLoss> depth_huber;
   // The Schur solvers' elimination order (fix_gauge, track.schur_ordering=landmarks); null = Ceres' own.
   std::shared_ptr<ceres::ParameterBlockOrdering> schur_ordering;
