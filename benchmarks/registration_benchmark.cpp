@@ -29,11 +29,14 @@ Pair make_office_pair(int height) {
   auto make = [&](const Rigid3d& world_from_pano) {
     const RenderedView view = renderer.render_equirectangular(world_from_pano, pano);
     RegistrationCloud cloud;
+    cloud.grid_width = pano.width();  // organised: prepare_surface's neighbours from the pixel window
+    cloud.grid_height = pano.height;
     for (int v = 0; v < pano.height; ++v)
       for (int u = 0; u < pano.width(); ++u) {
         const double z = view.depth.at(u, v);
         if (z <= 0) continue;
         cloud.points.push_back(pano.direction(u, v) * z);
+        cloud.grid_cells.push_back(std::uint32_t(v * pano.width() + u));
         cloud.measurement_covariances.push_back(
             equirectangular_point_covariance(2 * M_PI * (u + 0.5) / pano.width(), M_PI * (v + 0.5) / pano.height, z,
                                              0.5 * M_PI / pano.height, 9.49e-4 * z * z));
@@ -106,14 +109,16 @@ void BM_RegisterPclGicp(benchmark::State& state) {
 // Argument 0: the height; 1: what runs on the same clouds:
 //   0 GICP (Ours) on prepared clouds (the pipeline prepares each panorama once for all its pairs),
 //   1 Open3D's GICP, 2 PCL's GICP (each estimates its covariances inside the call),
-//   3 GICP (Ours) including prepare_surface() of both clouds: the like-for-like comparison.
+//   3 GICP (Ours) including prepare_surface() of both clouds: the like-for-like comparison,
+//   4 the same with each point's neighbours from the kd-tree instead of its panorama window (the
+//     clouds' grid_cells dropped): what the organised neighbourhood changes, in time and error.
 void BM_RegisterGrowth(benchmark::State& state) {
   const int height = int(state.range(0));
   const int variant = int(state.range(1));
   const Pair& pair = office_pair(height);
   IcpOptions options;
   options.method = IcpMethod::kGicpMeasured;
-  const char* labels[] = {"gicp-ours", "open3d-gicp", "pcl-gicp", "gicp-ours+surface"};
+  const char* labels[] = {"gicp-ours", "open3d-gicp", "pcl-gicp", "gicp-ours+surface", "gicp-ours+surface (kd-tree)"};
   state.SetLabel(labels[variant]);
   IcpResult result;
   double surface_s = 0.0;
@@ -122,9 +127,10 @@ void BM_RegisterGrowth(benchmark::State& state) {
       result = register_open3d_gicp(pair.source, pair.target, pair.initial, IcpOptions{});
     } else if (variant == 2) {
       result = register_pcl_gicp(pair.source, pair.target, pair.initial, IcpOptions{});
-    } else if (variant == 3) {
+    } else if (variant == 3 || variant == 4) {
       state.PauseTiming();  // the copies are not part of the registration
       RegistrationCloud source = pair.source, target = pair.target;
+      if (variant == 4) source.grid_cells.clear(), target.grid_cells.clear();
       state.ResumeTiming();
       const auto start = std::chrono::steady_clock::now();
       prepare_surface(source, Eigen::Vector3d::Zero(), SurfaceOptions{});
@@ -136,12 +142,15 @@ void BM_RegisterGrowth(benchmark::State& state) {
     }
   }
   report_error(state, pair, result);
-  if (variant == 0 || variant == 3) report_phases(state, result, surface_s);
+  if (variant == 0 || variant >= 3) report_phases(state, result, surface_s);
 }
 
-// Argument: threads (1 = the per-core cost, 0 = all cores).
+// Arguments: threads (1 = the per-core cost, 0 = all cores); 1 = neighbours from the panorama
+// window (the cloud's grid_cells), 0 = from the kd-tree.
 void BM_PrepareSurface(benchmark::State& state) {
   RegistrationCloud cloud = office_pair().source;
+  if (state.range(1) == 0) cloud.grid_cells.clear();
+  state.SetLabel(state.range(1) != 0 ? "grid window" : "kd-tree");
   SurfaceOptions options;
   options.threads = int(state.range(0));
   for (auto _ : state) prepare_surface(cloud, Eigen::Vector3d::Zero(), options);
@@ -154,10 +163,16 @@ BENCHMARK(BM_Register)->DenseRange(0, 6)->Unit(benchmark::kMillisecond)->UseReal
 BENCHMARK(BM_RegisterOpen3dGicp)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_RegisterPclGicp)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_RegisterGrowth)
-    ->ArgsProduct({{128, 256, 512}, {0, 1, 2, 3}})
+    ->ArgsProduct({{128, 256, 512}, {0, 1, 2, 3, 4}})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1)
     ->UseRealTime();
-BENCHMARK(BM_PrepareSurface)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_PrepareSurface)
+    ->Args({1, 1})
+    ->Args({0, 1})
+    ->Args({1, 0})
+    ->Args({0, 0})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 BENCHMARK_MAIN();

@@ -119,7 +119,8 @@ def ratios(results):
     lines.append(ratio_line("Open3D GICP time / GICP (Ours) time", first_seconds(reg, "BM_RegisterOpen3dGicp"), ours,
                             "speed-up on the same clouds"))
     # BM_RegisterGrowth/<H>/<variant>: 0 ours on prepared clouds, 1 Open3D, 2 PCL (both estimate their
-    # covariances inside the call), 3 ours including prepare_surface() of both clouds (like for like).
+    # covariances inside the call), 3 ours including prepare_surface() of both clouds (like for like),
+    # 4 the same with the kd-tree's neighbours instead of the panorama window's.
     growth_runs = {}
     for b in find(reg, "BM_RegisterGrowth/"):
         parts = b["name"].split("/")
@@ -127,7 +128,8 @@ def ratios(results):
     for height, runs in sorted(growth_runs.items(), key=lambda item: int(item[0])):
         points = next(iter(runs.values())).get("points", 0)
         for ref, ref_name, aim in (("2", "PCL", 10), ("1", "Open3D", 2)):
-            for ours_key, ours_name in (("0", "GICP (Ours)"), ("3", "GICP (Ours) + surfaces")):
+            for ours_key, ours_name in (("0", "GICP (Ours)"), ("3", "GICP (Ours) + surfaces"),
+                                        ("4", "GICP (Ours) + surfaces from a kd-tree")):
                 lines.append(ratio_line(f"{ref_name} GICP time / {ours_name} time, H = {height}",
                                         seconds(runs[ref]) if ref in runs else None,
                                         seconds(runs[ours_key]) if ours_key in runs else None,

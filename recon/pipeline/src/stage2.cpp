@@ -66,6 +66,10 @@ RegistrationCloud panorama_registration_cloud(const Panorama& panorama, const Pa
                                 : options.constant_sigma_m > 0                        ? options.constant_sigma_m
                                                                : median_usable_sigma(panorama, options);
   RegistrationCloud cloud;
+  // The sampled pixels form a grid (every stride-th row and column): prepare_surface takes each
+  // point's neighbours from the grid window around it.
+  cloud.grid_width = (width + stride - 1) / stride;
+  cloud.grid_height = (height + stride - 1) / stride;
   if (pixels) pixels->clear();
   for (int v = 0; v < height; v += stride)
     for (int u = 0; u < width; u += stride) {
@@ -83,6 +87,7 @@ RegistrationCloud panorama_registration_cloud(const Panorama& panorama, const Pa
       cloud.measurement_covariances.push_back(equirectangular_point_covariance(
           2 * M_PI * (u + 0.5) / width, M_PI * (v + 0.5) / height, depth, sigma_angle, sigma));
       cloud.confidence.push_back(float(count));
+      cloud.grid_cells.push_back(std::uint32_t((v / stride) * cloud.grid_width + u / stride));
       if (pixels) pixels->push_back(std::size_t(v) * width + u);
     }
   if (cloud.points.size() < 10)

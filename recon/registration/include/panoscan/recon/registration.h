@@ -21,6 +21,7 @@
 // on the thread count.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,12 @@ struct RegistrationCloud {
   std::vector<Eigen::Matrix3d> measurement_covariances;
   // Optional (empty or one per point): observation count (confidence), used by "Curv".
   std::vector<float> confidence;
+  // Optional (empty or one per point): the cell of a grid_width x grid_height grid each point was
+  // sampled from (row * grid_width + column; an equirectangular panorama's every stride-th pixel,
+  // whose columns wrap around in azimuth). With it prepare_surface takes each point's neighbours
+  // from the grid window around its cell (SurfaceOptions::grid_radius) instead of a kd-tree.
+  std::vector<std::uint32_t> grid_cells;
+  int grid_width = 0, grid_height = 0;
 
   // Filled by prepare_surface(): unit normals, curvature (lambda_min / sum lambda) and the
   // plane-shaped GICP covariance of each point (m^2).
@@ -61,6 +68,14 @@ struct RegistrationCloud {
 
 struct SurfaceOptions {
   int neighbours = 20;          // k nearest neighbours for the local plane
+  // For a cloud with grid_cells: the k nearest are chosen among the points of the
+  // (2 r + 1) x (2 r + 1) grid window around the point, as range-image normal estimation does
+  // (KinectFusion; PCL's organised estimators). r = 3: 48 candidates for k = 20. The kd-tree's
+  // k nearest in space are nearly the same set on a surface seen face-on; on one seen at a grazing
+  // angle (the floor far away) they collapse onto one pixel row, a line whose plane is ill-defined,
+  // where the window keeps rows above and below. Cost: a fixed window against a tree descent per
+  // point (recon/registration/README.md, "Surface preparation").
+  int grid_radius = 3;
   double plane_epsilon = 1e-3;  // GICP's epsilon: normal variance relative to the in-plane ones
   // false (the default): Segal et al.'s unit form U diag(eps, 1, 1) U^T in m^2 (as Open3D's and
   // PCL's GICP), the form the paper names for Eq. 9's surface part; the measurement covariance
