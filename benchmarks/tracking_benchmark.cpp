@@ -57,6 +57,10 @@ void BM_Frontend(benchmark::State& state) {
   for (const auto& f : scan.frames) frames += f.size();
   FrontendOptions options = benchmark_options().frontend;
   options.guided_matching = state.range(2) != 0;
+  // As recon track's default runs it: with the depth odometry on, the front end also keeps each
+  // frame's depth grid (track_scan sets this).
+  const TrackingOptions defaults;
+  options.depth_grid_block = defaults.depth_odometry ? defaults.depth_odometry_block_px : 0;
   state.SetLabel(options.guided_matching ? "matched by projection" : "brute-force matching");
   double ms = 0, feature_ms = 0, matching_ms = 0, landmarks = 0;
   for (auto _ : state) {

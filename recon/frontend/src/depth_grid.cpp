@@ -2,6 +2,8 @@
 #include "panoscan/recon/depth_grid.h"
 
 #include <algorithm>
+#include <cstdint>
+#include <vector>
 
 #include "panoscan/core/error.h"
 
@@ -24,27 +26,43 @@ DepthGrid make_depth_grid(const ImageF32& depth_m, const PinholeIntrinsics& pixe
   grid.intrinsics.fy = pixel_intrinsics.fy / block;
   grid.intrinsics.cx = (pixel_intrinsics.cx - 0.5 * (block - 1)) / block;
   grid.intrinsics.cy = (pixel_intrinsics.cy - 0.5 * (block - 1)) / block;
-  for (int j = 0; j < h; ++j)
+  // Two passes per band of `block` rows, both over contiguous memory so that the compiler vectorises
+  // them: each pixel column's sum, range and validity down the band, then each block's over its
+  // columns. Sums in float: 16-64 depths of 0.3-10 m, a relative error of 1e-7 (0.1 um at 1 m).
+  const std::size_t columns = static_cast<std::size_t>(w) * static_cast<std::size_t>(block);
+  std::vector<float> column_sum(columns), column_lo(columns), column_hi(columns);
+  std::vector<std::uint8_t> column_valid(columns);
+  for (int j = 0; j < h; ++j) {
+    std::fill(column_sum.begin(), column_sum.end(), 0.0f);
+    std::fill(column_lo.begin(), column_lo.end(), 1e30f);
+    std::fill(column_hi.begin(), column_hi.end(), 0.0f);
+    std::fill(column_valid.begin(), column_valid.end(), std::uint8_t(1));
+    for (int y = j * block; y < (j + 1) * block; ++y) {
+      const float* row = &depth_m.at(0, y);
+      for (std::size_t x = 0; x < columns; ++x) {
+        const float z = row[x];
+        column_valid[x] &= std::uint8_t(z > 0.0f);  // false for NaN too
+        column_sum[x] += z;
+        column_lo[x] = std::min(column_lo[x], z);
+        column_hi[x] = std::max(column_hi[x], z);
+      }
+    }
     for (int i = 0; i < w; ++i) {
-      double sum = 0.0;
-      float lo = 1e30f, hi = 0.0f;
+      const std::size_t first = static_cast<std::size_t>(i) * block;
+      float sum = 0.0f, lo = 1e30f, hi = 0.0f;
       bool valid = true;
-      for (int y = j * block; y < (j + 1) * block && valid; ++y)
-        for (int x = i * block; x < (i + 1) * block; ++x) {
-          const float z = depth_m.at(x, y);
-          if (!(z > 0.0f)) {
-            valid = false;
-            break;
-          }
-          sum += z;
-          lo = std::min(lo, z);
-          hi = std::max(hi, z);
-        }
+      for (std::size_t x = first; x < first + block; ++x) {
+        valid = valid && column_valid[x];
+        sum += column_sum[x];
+        lo = std::min(lo, column_lo[x]);
+        hi = std::max(hi, column_hi[x]);
+      }
       if (!valid) continue;
-      const double mean = sum / (block * block);
+      const double mean = double(sum) / (block * block);
       const double span = std::max(0.1 * mean, 6.0 * depth_noise_coefficient * mean * mean);
       if (hi - lo <= span) grid.depth.at(i, j) = float(mean);
     }
+  }
   return grid;
 }
 
