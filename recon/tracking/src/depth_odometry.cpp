@@ -62,6 +62,9 @@ SurfaceGrid surface_grid(const DepthGrid& grid, double c) {
   return s;
 }
 
+// The 3-D pairing gate of iteration `iteration` before its per-sample floor: halves from max_distance_m.
+double coarse_gate(const AlignOptions& o, int iteration) { return o.max_distance_m * std::pow(0.5, iteration); }
+
 struct Linearisation {
   Matrix6d hessian = Matrix6d::Zero();
   Vector6d gradient = Vector6d::Zero();
@@ -76,7 +79,7 @@ Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, c
   Linearisation lin;
   const Eigen::Matrix3d rotation = a_from_b.linear();
   const double c = o.depth_noise_coefficient;
-  const double coarse_gate = o.max_distance_m * std::pow(0.5, iteration);
+  const double gate_before_floor = coarse_gate(o, iteration);
   for (const Eigen::Vector3d& p : b) {
     const Eigen::Vector3d moved = a_from_b * p;
     if (!(moved.z() > 0.0)) continue;
@@ -90,7 +93,7 @@ Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, c
     const double sigma_q = c * q.z() * q.z(), sigma_p = c * p.z() * p.z();
     const double sigma = std::sqrt(sigma_q * sigma_q + sigma_p * sigma_p);
     const double footprint = q.z() / grid_a.fx;
-    const double gate = std::max(coarse_gate, 4.0 * sigma + footprint);
+    const double gate = std::max(gate_before_floor, 4.0 * sigma + footprint);
     const Eigen::Vector3d diff = moved - q;
     if (diff.squaredNorm() > gate * gate) continue;
     const double r = n.dot(diff) / sigma;
@@ -140,7 +143,7 @@ AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigi
     // Converged once the gate has shrunk to its floor (below 1 mm the per-sample floor of 4 sigma +
     // one block's footprint rules) and the step is a small fraction of the estimate's own standard
     // deviation: its length in the information metric, sqrt(delta^T H delta), is in those units.
-    const bool gate_at_floor = o.max_distance_m * std::pow(0.5, iteration) <= 1e-3;
+    const bool gate_at_floor = coarse_gate(o, iteration) <= 1e-3;
     if (gate_at_floor && delta.dot(lin.hessian * delta) < o.converged_step_sigma * o.converged_step_sigma) {
       ++iteration;
       break;
