@@ -4,6 +4,8 @@
 
 #include "panoscan/core/camera.h"
 #include "panoscan/core/geometry.h"
+#include "panoscan/core/random.h"
+#include "panoscan/core/rigid_ransac.h"
 
 using namespace panoscan;
 
@@ -123,4 +125,44 @@ TEST(Camera, EquirectangularRoundTrip) {
   // Row 0 looks up, the middle row looks at the horizon.
   EXPECT_GT(pano.direction(10, 0).z(), 0.99);
   EXPECT_NEAR(pano.direction(10, 127.5).z(), 0.0, 1e-12);
+}
+
+// Pairs where a share `inliers` follows `truth` within 1 mm and the rest are scattered in the room.
+void ransac_pairs(double inliers, const Rigid3d& truth, std::vector<Eigen::Vector3d>* a,
+                  std::vector<Eigen::Vector3d>* b) {
+  RandomStream random(3, 0, 0, RandomPurpose::kGeneric);
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3d p(random.uniform(-2, 2), random.uniform(-1, 1), random.uniform(1, 5));
+    b->push_back(p);
+    if (i < int(inliers * 200))
+      a->push_back(truth * p + 1e-3 * Eigen::Vector3d(random.normal(), random.normal(), random.normal()));
+    else
+      a->push_back(Eigen::Vector3d(random.uniform(-2, 2), random.uniform(-1, 1), random.uniform(1, 5)));
+  }
+}
+
+TEST(RigidRansac, StopsOnceAnAllInlierSampleIsLikelyAndStillFindsThePose) {
+  EXPECT_EQ(ransac_iterations_needed(0.999, 0.5), 52.0);  // log(1e-3) / log(1 - 1/8) = 51.7
+  EXPECT_EQ(ransac_iterations_needed(0.9999, 1.0), 1.0);
+  EXPECT_TRUE(std::isinf(ransac_iterations_needed(1.0, 0.9)));   // confidence 1: every draw
+  EXPECT_TRUE(std::isinf(ransac_iterations_needed(0.9999, 0.0)));
+  const Rigid3d truth = make_rigid(so3_exp(Eigen::Vector3d(0.02, -0.3, 0.05)), Eigen::Vector3d(0.1, 0.0, -0.05));
+  for (const double share : {0.9, 0.5, 0.25}) {
+    std::vector<Eigen::Vector3d> a, b;
+    ransac_pairs(share, truth, &a, &b);
+    const std::vector<double> thresholds(a.size(), 0.005);
+    RigidRansacResult every, adaptive;
+    ASSERT_TRUE(rigid_ransac(a, b, thresholds, {2000, 1.0, 0}, 12, 1, 0, &every)) << share;
+    ASSERT_TRUE(rigid_ransac(a, b, thresholds, {2000, 0.9999, 20}, 12, 1, 0, &adaptive)) << share;
+    EXPECT_EQ(every.iterations, 2000);
+    // The rule's own bound at the true share (the best consensus found is at most the true share,
+    // and reaching it ends the search), and never below the minimum.
+    EXPECT_GE(adaptive.iterations, 20);
+    EXPECT_LE(adaptive.iterations, std::max(20.0, ransac_iterations_needed(0.9999, share * 0.95)) + 1) << share;
+    EXPECT_LT(adaptive.iterations, 2000) << share;
+    for (const RigidRansacResult* r : {&every, &adaptive}) {
+      EXPECT_NEAR(double(r->inliers.size()), share * 200, 2.0) << share;
+      EXPECT_LT((r->a_from_b.matrix() - truth.matrix()).norm(), 2e-3) << share;
+    }
+  }
 }

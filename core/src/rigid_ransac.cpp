@@ -1,16 +1,28 @@
 // 3D-3D RANSAC (rigid_ransac.h).
 #include "panoscan/core/rigid_ransac.h"
 
+#include <cmath>
+#include <limits>
+
 #include <Eigen/Dense>
 
 #include "panoscan/core/random.h"
 
 namespace panoscan {
 
+double ransac_iterations_needed(double confidence, double inlier_share) {
+  if (!(confidence > 0.0) || !(confidence < 1.0)) return std::numeric_limits<double>::infinity();
+  const double all_inliers = inlier_share * inlier_share * inlier_share;  // one sample of 3
+  if (all_inliers >= 1.0) return 1.0;
+  if (!(all_inliers > 0.0)) return std::numeric_limits<double>::infinity();
+  return std::ceil(std::log(1.0 - confidence) / std::log1p(-all_inliers));
+}
+
 bool rigid_ransac(const std::vector<Eigen::Vector3d>& points_a, const std::vector<Eigen::Vector3d>& points_b,
-                  const std::vector<double>& thresholds, int iterations, int min_inliers, std::uint64_t seed,
-                  std::int64_t stream_key, RigidRansacResult* result) {
+                  const std::vector<double>& thresholds, const RansacBudget& budget, int min_inliers,
+                  std::uint64_t seed, std::int64_t stream_key, RigidRansacResult* result) {
   const int n = int(points_a.size());
+  if (result) result->iterations = 0;
   if (n < std::max(3, min_inliers)) return false;
   RandomStream random(seed, stream_key, 0, RandomPurpose::kGeneric, 7);
   auto count_inliers = [&](const Rigid3d& a_from_b, std::vector<int>* inliers) {
@@ -20,7 +32,10 @@ bool rigid_ransac(const std::vector<Eigen::Vector3d>& points_a, const std::vecto
   };
   std::vector<int> best, current;
   std::vector<Eigen::Vector3d> sample_a(3), sample_b(3);
-  for (int iteration = 0; iteration < iterations; ++iteration) {
+  double needed = std::numeric_limits<double>::infinity();  // from the best consensus so far
+  int iteration = 0;
+  for (; iteration < budget.max_iterations; ++iteration) {
+    if (iteration >= budget.min_iterations && double(iteration) >= needed) break;
     int idx[3];
     idx[0] = random.uniform_int(0, n - 1);
     do idx[1] = random.uniform_int(0, n - 1);
@@ -36,8 +51,12 @@ bool rigid_ransac(const std::vector<Eigen::Vector3d>& points_a, const std::vecto
     Rigid3d hypothesis;
     if (!fit_rigid_transform(sample_b, sample_a, hypothesis)) continue;
     count_inliers(hypothesis, &current);
-    if (current.size() > best.size()) best.swap(current);
+    if (current.size() > best.size()) {
+      best.swap(current);
+      needed = ransac_iterations_needed(budget.confidence, double(best.size()) / double(n));
+    }
   }
+  if (result) result->iterations = iteration;
   if (int(best.size()) < std::max(3, min_inliers)) {
     if (result) result->inliers = best;
     return false;

@@ -35,6 +35,8 @@ void FrontendOptions::check(const std::string& origin) const {
   require(guided_radius_px > 0.0, "guided_radius_px", "must be > 0");
   require(loop_frames >= 0, "loop_frames", "must be >= 0");
   require(ransac_iterations >= 1, "ransac_iterations", "must be >= 1");
+  require(ransac_confidence > 0.0 && ransac_confidence <= 1.0, "ransac_confidence", "must be in (0, 1] (1 = every draw)");
+  require(ransac_min_iterations >= 0, "ransac_min_iterations", "must be >= 0");
   require(ransac_sigmas > 0.0, "ransac_sigmas", "must be > 0");
   require(min_inliers >= 3 && min_cross_inliers >= 3, "min_inliers", "must be >= 3");
   require(min_depth_m > 0.0 && max_depth_m > min_depth_m, "min_depth_m", "need 0 < min_depth_m < max_depth_m");
@@ -159,11 +161,12 @@ bool match_by_projection(const FrameFeatures& a, const FrameFeatures& b, const P
   std::vector<double> thresholds;
   matched_points(a, b, in_a, in_b, options, sample_matches, &pa, &pb, &thresholds);
   RigidRansacResult predicted;
-  // Its own random stream (negative keys are not used by the pairs' RANSAC), and half the pair's
-  // iterations: the sample's matches are mostly right (at 80% inliers about every second draw is
-  // all inliers; at 50%, 100 draws all miss with probability 1e-6).
-  const int iterations = std::max(1, options.ransac_iterations / 2);
-  if (!rigid_ransac(pa, pb, thresholds, iterations, options.min_inliers, options.seed, -1 - key, &predicted))
+  // Its own random stream (negative keys are not used by the pairs' RANSAC), and at most half the
+  // pair's iterations: the sample's matches are mostly right (at 80% inliers about every second draw
+  // is all inliers; at 50%, 100 draws all miss with probability 1e-6).
+  const RansacBudget budget{std::max(1, options.ransac_iterations / 2), options.ransac_confidence,
+                            options.ransac_min_iterations};
+  if (!rigid_ransac(pa, pb, thresholds, budget, options.min_inliers, options.seed, -1 - key, &predicted))
     return false;
   const Rigid3d b_from_a = predicted.a_from_b.inverse();
 
@@ -291,7 +294,8 @@ PairOutcome match_pair(const PairTask& task, const std::vector<std::vector<Frame
   matched_points(a, b, in_a, in_b, options, matches, &pa, &pb, &thresholds);
   RigidRansacResult ransac;
   const bool found =
-      rigid_ransac(pa, pb, thresholds, options.ransac_iterations, min_inliers, options.seed, key, &ransac);
+      rigid_ransac(pa, pb, thresholds, {options.ransac_iterations, options.ransac_confidence, options.ransac_min_iterations},
+                   min_inliers, options.seed, key, &ransac);
   out.inliers = int(ransac.inliers.size());
   if (!found) return out;
   if (cross) {

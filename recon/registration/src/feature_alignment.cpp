@@ -78,8 +78,11 @@ FeatureAlignment align_panorama_features(const PanoramaFeatures& from, const Pan
   const std::vector<double> thresholds(matched_from.size(), options.inlier_threshold_m);
   RigidRansacResult ransac;
   const int n = result.matches;
-  const bool found = rigid_ransac(matched_to, matched_from, thresholds, options.ransac_iterations, options.min_inliers,
-                                  options.seed, 0, &ransac);
+  // Every draw (no early stop): panorama matches can be mostly outliers, and the runner-up below
+  // compares two consensus sets found with the same effort.
+  const RansacBudget budget{options.ransac_iterations, 1.0, 0};
+  const bool found = rigid_ransac(matched_to, matched_from, thresholds, budget, options.min_inliers, options.seed, 0,
+                                  &ransac);
   if (!found) {
     result.failure =
         "RANSAC found only " + std::to_string(ransac.inliers.size()) + " consistent matches of " + std::to_string(n);
@@ -110,7 +113,7 @@ FeatureAlignment align_panorama_features(const PanoramaFeatures& from, const Pan
   RigidRansacResult second;
   if (int(rest_from.size()) >= options.min_inliers &&
       rigid_ransac(rest_to, rest_from, std::vector<double>(rest_from.size(), options.inlier_threshold_m),
-                   options.ransac_iterations, options.min_inliers, options.seed, 1, &second)) {
+                   budget, options.min_inliers, options.seed, 1, &second)) {
     result.alternative_target_from_source = second.a_from_b;
     result.alternative_inliers = int(second.inliers.size());
   }

@@ -152,6 +152,8 @@ TrackingOptions tracking_options_from_config(Config& config) {
   f.max_pair_translation_m =
       config.get_double("frontend.max_pair_translation_m", f.max_pair_translation_m, 1e-3, 100.0);
   f.ransac_iterations = config.get_int("frontend.ransac_iterations", f.ransac_iterations, 1, 100000);
+  f.ransac_confidence = config.get_double("frontend.ransac_confidence", f.ransac_confidence, 1e-6, 1.0);
+  f.ransac_min_iterations = config.get_int("frontend.ransac_min_iterations", f.ransac_min_iterations, 0, 100000);
   f.min_inliers = config.get_int("frontend.min_inliers", f.min_inliers, 3, 10000);
   f.min_cross_inliers = config.get_int("frontend.min_cross_inliers", f.min_cross_inliers, 3, 10000);
   f.band_matching = config.get_bool("frontend.band_matching", f.band_matching);
