@@ -14,6 +14,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include "panoscan/core/allocator.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
@@ -59,6 +60,7 @@ int main(int argc, char** argv) {
     ::setenv("OMP_WAIT_POLICY", "PASSIVE", 0);
     ::execv("/proc/self/exe", argv);
   }
+  keep_freed_memory_for_reuse();  // core/allocator.h: frame-sized blocks are reused, not refaulted
   CLI::App app{"PanoScan: panoramic RGB-D scanning testbed (Yang et al., TOG 2020)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "panoscan " + project_version() + " (" + source_revision() + ")");

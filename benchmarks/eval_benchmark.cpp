@@ -24,6 +24,7 @@
 #include "panoscan/eval/point_set_distance.h"
 #include "panoscan/eval/surface_sampling.h"
 #include "panoscan/scenes/scenes.h"
+#include "benchmark_main.h"
 
 using namespace panoscan;
 using namespace panoscan::eval;
@@ -186,4 +187,4 @@ BENCHMARK(BM_ExactDistanceBruteForce)->Unit(benchmark::kMillisecond)->UseRealTim
 BENCHMARK(BM_SampledMeshKdTree)->Arg(10000)->Arg(40000)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(2);
 BENCHMARK(BM_EvaluateCloudWithCompleteness)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) { return panoscan::bench::run_benchmarks(argc, argv); }

@@ -23,6 +23,7 @@
 #include "panoscan/recon/tsdf_baseline.h"
 #include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/simulator.h"
+#include "benchmark_main.h"
 
 using namespace panoscan;
 
@@ -184,4 +185,4 @@ BENCHMARK(BM_PanoramaSize)
     ->UseRealTime();
 BENCHMARK(BM_TsdfBaseline)->Unit(benchmark::kSecond)->Iterations(1)->MeasureProcessCPUTime()->UseRealTime();
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) { return panoscan::bench::run_benchmarks(argc, argv); }

@@ -10,6 +10,7 @@
 #include "panoscan/recon/registration.h"
 #include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/renderer.h"
+#include "benchmark_main.h"
 
 using namespace panoscan;
 
@@ -175,4 +176,4 @@ BENCHMARK(BM_PrepareSurface)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) { return panoscan::bench::run_benchmarks(argc, argv); }

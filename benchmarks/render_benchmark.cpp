@@ -13,6 +13,7 @@
 
 #include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/simulator.h"
+#include "benchmark_main.h"
 
 using namespace panoscan;
 namespace fs = std::filesystem;
@@ -169,4 +170,4 @@ BENCHMARK(BM_RaysRenderOnly)->Unit(benchmark::kMillisecond)->MinTime(2.0)->Measu
 // Replaces BM_SimulateOnePosition (the same whole position, without the rate and the stages).
 BENCHMARK(BM_SimEndToEnd)->Arg(0)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) { return panoscan::bench::run_benchmarks(argc, argv); }

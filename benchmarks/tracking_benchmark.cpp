@@ -18,6 +18,7 @@
 #include "panoscan/recon/tracking.h"
 #include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/simulator.h"
+#include "benchmark_main.h"
 
 namespace panoscan {
 namespace {
@@ -139,4 +140,4 @@ BENCHMARK(BM_Solve)
 }  // namespace
 }  // namespace panoscan
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) { return panoscan::bench::run_benchmarks(argc, argv); }

@@ -531,10 +531,21 @@ ImageF32 depth_from_png_units(const ImageU16& depth, double depth_scale) {
   check_depth_scale(depth_scale);
   check_image_shape(depth, 1, "", "depth");
   ImageF32 metres(depth.width, depth.height, 1, 0.0f);
-  // Without a branch (0 / scale is the 0 a pixel without depth keeps), so the loop vectorises.
+  // The quotient of every 16-bit value, computed once per scale and thread (the same float as the
+  // division per pixel, 0 for 0): a load per pixel instead of a double division, which was 2% of
+  // the front end's instructions and more of its time.
+  thread_local std::vector<float> metres_of_units;
+  thread_local double table_scale = 0.0;
+  if (metres_of_units.empty() || table_scale != depth_scale) {
+    metres_of_units.resize(65536);
+    for (std::size_t u = 0; u < metres_of_units.size(); ++u)
+      metres_of_units[u] = static_cast<float>(double(u) / depth_scale);
+    table_scale = depth_scale;
+  }
   const std::uint16_t* units = depth.data.data();
+  const float* table = metres_of_units.data();
   float* out = metres.data.data();
-  for (std::size_t i = 0; i < depth.data.size(); ++i) out[i] = static_cast<float>(units[i] / depth_scale);
+  for (std::size_t i = 0; i < depth.data.size(); ++i) out[i] = table[units[i]];
   return metres;
 }
 

@@ -98,15 +98,24 @@ void set_anchor(const BandCrop& crop_a, std::size_t k, Anchor* anchor) {
 
 // Warps the anchor's patch into b, every patch pixel at the anchor's depth. The depth matters for
 // where the patch lands (the cameras are centimetres apart: 6 cm shift a point 2.5 m away by 14 px
-// at 570 px focal length) but hardly within a patch of a few pixels.
+// at 570 px focal length) but hardly within a patch of a few pixels. False as well when no shift
+// within `radius` can bring the patch inside b's crop: the anchor itself is one of the patch's
+// pixels, so when it stays outside at every shift, correlation_surface would score none (most
+// anchors land outside b's crop, and warping their patches was a tenth of the band's search).
 bool warp_anchor(const Relation& relation, const Rigid3d& b_from_a, const ScanIndex& scan, const BandCrop& crop_b,
-                 const PatchShape& shape, Anchor* anchor) {
+                 const PatchShape& shape, int radius, Anchor* anchor) {
   const auto& in_a = scan.rig.sensors[relation.sensor_a].intrinsics;
   const auto& in_b = scan.rig.sensors[relation.sensor_b].intrinsics;
   const Eigen::Vector3d centre = b_from_a * in_a.backproject(anchor->pixel.x, anchor->pixel.y, anchor->depth);
   if (centre.z() <= 0.05) return false;
   const Eigen::Vector2d centre_px = in_b.project(centre);
   anchor->centre_in_b = cv::Point2f(float(centre_px.x()), float(centre_px.y()));
+  // The anchor's own warped position (as the loop below stores it) against correlation_surface's
+  // range test.
+  const double centre_x = float(centre_px.x() - crop_b.roi.x), centre_y = float(centre_px.y() - crop_b.roi.y);
+  if (centre_x + radius < 0 || centre_y + radius < 0 || centre_x - radius > double(crop_b.gray.width - 1) - 1e-3 ||
+      centre_y - radius > double(crop_b.gray.height - 1) - 1e-3)
+    return false;
   anchor->predicted_depth_in_b = centre.z();
   anchor->warped.clear();
   // At one depth the back-projected patch is linear in the pixel offsets: the point of offset
@@ -160,11 +169,14 @@ void prepare_sampler(const Anchor& anchor, const ImageF32& gray_b, PatchSampler*
 // first highest score, -1 when no shift keeps the patch inside. The loops run patch pixel by patch
 // pixel with the shifts inside: for one pixel and one row of shifts the samples are a contiguous
 // run of b's row, so the loop over dx vectorises (shift by shift, as before, the search was 17% of
-// a tracking run's instructions). Each shift still sums its patch pixels in the same order, so the
-// scores are the same bits as the shift-by-shift loop gave.
+// a tracking run's instructions). The sums are single precision, four shifts per SSE instruction
+// (double precision took two and converted every sample twice; the band's first search was then
+// 14% of the front end's instructions). Single precision holds because the samples are taken
+// relative to a grey level of the searched region: what is summed is the patch's contrast (tens of
+// grey levels over 21 x 3 pixels), not its brightness, so the variance loses no digits to the mean.
 // Per-shift sums of correlation_surface, kept by the caller across anchors (no allocation per anchor).
 struct CorrelationSums {
-  std::vector<double> sums, squares, cross;
+  std::vector<float> sums, squares, cross;
 };
 
 int correlation_surface(const Anchor& anchor, const PatchSampler& sampler, const ImageF32& gray_b, int radius,
@@ -181,29 +193,33 @@ int correlation_surface(const Anchor& anchor, const PatchSampler& sampler, const
   if (dx_lo > dx_hi || dy_lo > dy_hi) return -1;
   const int nx = dx_hi - dx_lo + 1, ny = dy_hi - dy_lo + 1;
   const std::size_t cells = std::size_t(nx) * ny;
-  scratch->sums.assign(cells, 0.0);
-  scratch->squares.assign(cells, 0.0);
-  scratch->cross.assign(cells, 0.0);
-  std::vector<double>& sums = scratch->sums;
-  std::vector<double>& squares = scratch->squares;
-  std::vector<double>& cross = scratch->cross;
+  scratch->sums.assign(cells, 0.f);
+  scratch->squares.assign(cells, 0.f);
+  scratch->cross.assign(cells, 0.f);
+  std::vector<float>& sums = scratch->sums;
+  std::vector<float>& squares = scratch->squares;
+  std::vector<float>& cross = scratch->cross;
   const std::size_t n = anchor.warped.size();
   const std::ptrdiff_t stride = std::ptrdiff_t(gray_b.width) * gray_b.channels;
   const float* image = gray_b.row(0);
+  // The reference grey level: b at the patch's middle pixel, shifted to the middle of the searched
+  // shifts (inside the crop by the range test above).
+  const float reference =
+      image[sampler.offset[n / 2] + std::ptrdiff_t((dy_lo + dy_hi) / 2) * stride + (dx_lo + dx_hi) / 2];
   for (std::size_t k = 0; k < n; ++k) {
     const float w00 = sampler.w00[k], w01 = sampler.w01[k], w10 = sampler.w10[k], w11 = sampler.w11[k];
-    const double t = anchor.templ[k];
+    const float t = anchor.templ[k];
     for (int dy = dy_lo; dy <= dy_hi; ++dy) {
       const float* p = image + sampler.offset[k] + std::ptrdiff_t(dy) * stride + dx_lo;
       const std::size_t row = std::size_t(dy - dy_lo) * nx;
-      double* __restrict s = sums.data() + row;
-      double* __restrict q = squares.data() + row;
-      double* __restrict c = cross.data() + row;
+      float* __restrict s = sums.data() + row;
+      float* __restrict q = squares.data() + row;
+      float* __restrict c = cross.data() + row;
       for (int i = 0; i < nx; ++i) {
-        const float g = w00 * p[i] + w01 * p[i + 1] + w10 * p[i + stride] + w11 * p[i + stride + 1];
+        const float g = w00 * p[i] + w01 * p[i + 1] + w10 * p[i + stride] + w11 * p[i + stride + 1] - reference;
         s[i] += g;
-        q[i] += double(g) * g;
-        c[i] += double(g) * t;
+        q[i] += g * g;
+        c[i] += g * t;
       }
     }
   }
@@ -211,9 +227,9 @@ int correlation_surface(const Anchor& anchor, const PatchSampler& sampler, const
   for (int dy = dy_lo; dy <= dy_hi; ++dy)
     for (int dx = dx_lo; dx <= dx_hi; ++dx) {
       const std::size_t cell = std::size_t(dy - dy_lo) * nx + std::size_t(dx - dx_lo);
-      const double variance = squares[cell] - sums[cell] * sums[cell] / double(n);
+      const double variance = double(squares[cell]) - double(sums[cell]) * double(sums[cell]) / double(n);
       const int index = (dy + radius) * side + dx + radius;
-      (*surface)[std::size_t(index)] = variance > 1e-6 ? cross[cell] / std::sqrt(variance) : 0.0;
+      (*surface)[std::size_t(index)] = variance > 1e-6 ? double(cross[cell]) / std::sqrt(variance) : 0.0;
       if (best < 0 || (*surface)[std::size_t(index)] > (*surface)[std::size_t(best)]) best = index;
     }
   return best;
@@ -421,7 +437,7 @@ Eigen::Matrix3d estimate_band_correction(const Relation& relation, const CameraC
     std::vector<double> surface(std::size_t(side) * side);
     for (std::size_t patch = 0; patch < crop_a.patches.size(); ++patch) {
       set_anchor(crop_a, patch, &anchor);
-      if (!warp_anchor(relation, b_from_a, scan, crop_b, shape, &anchor)) continue;
+      if (!warp_anchor(relation, b_from_a, scan, crop_b, shape, radius, &anchor)) continue;
       prepare_sampler(anchor, crop_b.gray, &sampler);
       const int best = correlation_surface(anchor, sampler, crop_b.gray, radius, &surface, &sums);
       if (best < 0) continue;
@@ -550,7 +566,7 @@ BandPairResult match_band_pair(const Relation& relation, const Rigid3d& b_from_a
     const int cell = (relation.along_x ? corner.x : corner.y) / cell_size;
     if (cell_used[cell]) continue;
     set_anchor(crop_a, k, &anchor);
-    if (!warp_anchor(relation, b_from_a, scan, crop_b, shape, &anchor)) continue;
+    if (!warp_anchor(relation, b_from_a, scan, crop_b, shape, r, &anchor)) continue;
     prepare_sampler(anchor, crop_b.gray, &sampler);
     // Every shift of the window that keeps the patch inside b; the peak's four neighbours must be
     // scored too (for the sub-pixel fit), so a peak on the rim of b or of the window is refused.
