@@ -14,7 +14,7 @@ bool keep_freed_memory_for_reuse() {
   // switches off glibc's dynamic threshold, which only rose after the first large block was freed.
   constexpr int kMmapThreshold = 32 << 20;
   // The free memory a heap may keep at its top before it is trimmed: a frame's blocks and more.
-  constexpr int kTrimThreshold = 256 << 20;
+  constexpr int kTrimThreshold = 16 << 20;
   const bool mmap_ok = mallopt(M_MMAP_THRESHOLD, kMmapThreshold) == 1;
   const bool trim_ok = mallopt(M_TRIM_THRESHOLD, kTrimThreshold) == 1;
   return mmap_ok && trim_ok;

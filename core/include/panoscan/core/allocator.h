@@ -10,7 +10,7 @@ namespace panoscan {
 // (or trimmed off the heap) per frame, and touching fresh pages faults: on the 2-core VM that made
 // recon track's feature extraction take 8.2 ms per 640x480 frame instead of 3.9 ms. The blocks now
 // stay mapped, so the process's resident memory is its peak working set rather than what it uses at
-// the moment (at most 256 MB more per heap). Blocks above 32 MB (the panorama's measurement sets)
+// the moment (at most 16 MB more per heap). Blocks above 32 MB (the panorama's measurement sets)
 // are still mapped and unmapped as before. Returns false if glibc refused a setting (other C
 // libraries: a no-op returning false).
 bool keep_freed_memory_for_reuse();
