@@ -2,7 +2,6 @@
 #include "png_decode.h"
 
 #include <cstring>
-#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
@@ -10,6 +9,7 @@
 #include <libdeflate.h>
 
 #include "panoscan/core/error.h"
+#include "ply_header.h"  // ply::read_whole_file
 
 namespace panoscan {
 
@@ -79,17 +79,6 @@ bool unfilter_row(int filter, unsigned char* row, const unsigned char* previous,
   }
 }
 
-// The whole file in one read (an istreambuf_iterator copies it byte by byte).
-std::string read_whole_file(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in) throw make_error(path.string(), "", "cannot open image file");
-  const std::streamoff size = in.tellg();
-  if (size < 0) throw make_error(path.string(), "", "cannot read image file");
-  std::string file(std::size_t(size), '\0');
-  in.seekg(0);
-  if (size > 0 && !in.read(file.data(), size)) throw make_error(path.string(), "", "cannot read image file");
-  return file;
-}
 
 struct Decompressor {
   libdeflate_decompressor* d = libdeflate_alloc_decompressor();
@@ -99,7 +88,8 @@ struct Decompressor {
 }  // namespace
 
 bool decode_png_fast(const std::filesystem::path& path, DecodedPng* out) {
-  const std::string file = read_whole_file(path);
+  // In one read (an istreambuf_iterator copied it byte by byte).
+  const std::string file = ply::read_whole_file(path.string());
   const auto* bytes = reinterpret_cast<const unsigned char*>(file.data());
   const std::size_t size = file.size();
   static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
