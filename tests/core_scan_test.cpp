@@ -834,5 +834,28 @@ TEST(DepthUnits, MetresToUnitsRoundsAndInvalidatesBadValues) {
   EXPECT_THAT(error_of([&] { depth_from_png_units(units, -1.0); }), HasSubstr("depth_scale"));
 }
 
+// The conversion rounds half away from zero as std::lround does, also at the floats on either side
+// of every half unit, where an x + 0.5 shortcut would round the wrong way.
+TEST(DepthUnits, RoundsAsLroundAtAndAroundHalfUnits) {
+  std::vector<float> values;
+  for (int unit = 0; unit < 65535; unit += 97) {
+    const float half = (float(unit) + 0.5f) / 1000.0f;
+    values.push_back(std::nextafter(half, 0.0f));
+    values.push_back(half);
+    values.push_back(std::nextafter(half, 1e9f));
+    values.push_back(float(unit) / 1000.0f);
+  }
+  ImageF32 depth(int(values.size()), 1, 1);
+  depth.data = values;
+  for (const double scale : {1000.0, 5000.0, 1.0 / 0.3}) {
+    const ImageU16 units = depth_to_png_units(depth, scale);
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      const double scaled = double(values[i]) * scale;
+      const long expected = values[i] > 0 && scaled <= 65535.5 && std::lround(scaled) <= 65535 ? std::lround(scaled) : 0;
+      ASSERT_EQ(units.data[i], expected) << "depth " << values[i] << " m at scale " << scale;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace panoscan

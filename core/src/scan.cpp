@@ -520,7 +520,10 @@ ImageU16 depth_to_png_units(const ImageF32& depth_m, double depth_scale) {
     if (!std::isfinite(z) || !(z > 0.0)) continue;
     const double scaled = z * depth_scale;
     if (scaled > 65535.5) continue;  // beyond the 16-bit range: invalid rather than clipped
-    const long rounded = std::lround(scaled);
+    // std::lround for a positive value (half away from zero), without its libm call per pixel: the
+    // fraction x - trunc(x) is exact for any x below 2^52.
+    const long truncated = static_cast<long>(scaled);
+    const long rounded = truncated + (scaled - double(truncated) >= 0.5);
     if (rounded > 65535) continue;
     units.data[i] = static_cast<std::uint16_t>(rounded);
   }

@@ -59,52 +59,83 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
 
   // Inverse depth per pixel, 0 where the sensor has no measurement (no hit, or outside its
   // range): such a pixel invalidates every lookup that touches it. Computed once per frame so
-  // that the per-pixel lookup needs no division.
+  // that the per-pixel lookup needs no division. The float quotient is the double one rounded to
+  // float (double carries more than twice float's precision), and unlike it vectorises.
   ImageF32 inverse_depth(width, height, 1, 0.0f);
+  const double min_depth = options.min_depth_m, max_depth = options.max_depth_m;
   for (std::size_t i = 0; i < clean.data.size(); ++i) {
-    const double z = clean.data[i];
-    if (z >= options.min_depth_m && z <= options.max_depth_m) inverse_depth.data[i] = float(1.0 / z);
+    const float z = clean.data[i];
+    const bool in_range = double(z) >= min_depth && double(z) <= max_depth;
+    inverse_depth.data[i] = in_range ? 1.0f / z : 0.0f;
   }
 
+  if (!noisy_preset) {
+    for (std::size_t i = 0; i < clean.data.size(); ++i) {
+      const double z_clean = clean.data[i];
+      if (z_clean > 0 && depth_valid(z_clean, incidence.data[i], options)) noisy.data[i] = float(z_clean);
+    }
+    return noisy;
+  }
+
+  const double shift_std = options.shift_std_px;
+  const double ir_dropout = options.ir_dropout, ir_disparity_std = options.ir_disparity_std;
   tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
+    // A row's variates are drawn first, one stream at a time, then the model runs over the row.
+    // Each stream gives the same draws in the same order as when the pixel loop drew them (the
+    // streams are independent of each other), so the noise is the same; the separate loops keep
+    // one generator's state in registers and leave the model's loop free of the generators.
+    std::vector<double> shift_x(width), shift_y(width), disparity_noise(width), lateral_noise(width, 0.0),
+        speckle_noise(width, 0.0);
+    std::vector<std::uint8_t> speckle_hole(width, 0);
     for (int y = rows.begin(); y != rows.end(); ++y) {
       // One stream per (purpose, row): the result does not depend on how rows are scheduled.
       RandomStream shift_rng(seed, input.sensor, input.frame, RandomPurpose::kDepthShift, y);
       RandomStream disparity_rng(seed, input.sensor, input.frame, RandomPurpose::kDepthDisparity, y);
-      RandomStream lateral_rng(seed, input.sensor, input.frame, RandomPurpose::kDepthLateral, y);
-      RandomStream speckle_rng(seed, input.sensor, input.frame, RandomPurpose::kSpeckle, y);
+      // Every variate is drawn for every pixel so that validity never shifts the streams.
+      for (int x = 0; x < width; ++x) {
+        shift_x[x] = shift_rng.normal() * shift_std;
+        shift_y[x] = shift_rng.normal() * shift_std;
+      }
+      for (int x = 0; x < width; ++x) disparity_noise[x] = disparity_rng.normal() * disparity_std;
+      if (lateral) {
+        RandomStream lateral_rng(seed, input.sensor, input.frame, RandomPurpose::kDepthLateral, y);
+        for (int x = 0; x < width; ++x) lateral_noise[x] = lateral_rng.normal();
+      }
       const bool in_band = options.ir_speckle && band_rows > 0 &&
                            ((input.speckle_top && y < band_rows) || (input.speckle_bottom && y >= height - band_rows));
+      if (in_band) {
+        RandomStream speckle_rng(seed, input.sensor, input.frame, RandomPurpose::kSpeckle, y);
+        for (int x = 0; x < width; ++x) {
+          speckle_hole[x] = speckle_rng.uniform() < ir_dropout;
+          speckle_noise[x] = speckle_rng.normal() * ir_disparity_std;
+        }
+      } else {
+        std::fill(speckle_hole.begin(), speckle_hole.end(), std::uint8_t(0));
+        std::fill(speckle_noise.begin(), speckle_noise.end(), 0.0);
+      }
+
+      const float* clean_row = clean.row(y);
+      const float* incidence_row = incidence.row(y);
+      float* noisy_row = noisy.row(y);
       for (int x = 0; x < width; ++x) {
-        const double z_clean = clean.at(x, y);
-        const double cos_incidence = incidence.at(x, y);
-        if (!noisy_preset) {
-          if (z_clean > 0 && depth_valid(z_clean, cos_incidence, options)) noisy.at(x, y) = float(z_clean);
-          continue;
-        }
-        // Draw every variate for every pixel so that validity never shifts the streams.
-        const double shift_x = shift_rng.normal() * options.shift_std_px;
-        const double shift_y = shift_rng.normal() * options.shift_std_px;
-        const double disparity_noise = disparity_rng.normal() * disparity_std;
-        const double lateral_noise = lateral ? lateral_rng.normal() : 0.0;
-        double speckle_noise = 0.0;
-        bool speckle_hole = false;
-        if (in_band) {
-          speckle_hole = speckle_rng.uniform() < options.ir_dropout;
-          speckle_noise = speckle_rng.normal() * options.ir_disparity_std;
-        }
-        if (z_clean <= 0 || cos_incidence < min_cos || speckle_hole) continue;
+        const double z_clean = clean_row[x];
+        const double cos_incidence = incidence_row[x];
+        if (z_clean <= 0 || cos_incidence < min_cos || speckle_hole[x]) continue;
 
         // Step 1: sub-pixel shift, bilinear interpolation of inverse depth (clamped at the border);
         // a lookup touching an invalid neighbour is invalid.
-        const double sx = std::clamp(x + shift_x, 0.0, double(width - 1));
-        const double sy = std::clamp(y + shift_y, 0.0, double(height - 1));
+        const double sx = std::clamp(x + shift_x[x], 0.0, double(width - 1));
+        const double sy = std::clamp(y + shift_y[x], 0.0, double(height - 1));
         const int x0 = static_cast<int>(sx), y0 = static_cast<int>(sy);
         const int x1 = std::min(x0 + 1, width - 1), y1 = std::min(y0 + 1, height - 1);
         const double fx = sx - x0, fy = sy - y0;
-        const double i00 = inverse_depth.at(x0, y0), i10 = inverse_depth.at(x1, y0);
-        const double i01 = inverse_depth.at(x0, y1), i11 = inverse_depth.at(x1, y1);
-        if (i00 == 0 || i10 == 0 || i01 == 0 || i11 == 0) continue;
+        const float* upper = inverse_depth.row(y0);
+        const float* lower = inverse_depth.row(y1);
+        const double i00 = upper[x0], i10 = upper[x1];
+        const double i01 = lower[x0], i11 = lower[x1];
+        // The four tests combined without short-circuit branches: each is rarely true, and one
+        // branch predicts better than four.
+        if ((i00 == 0) | (i10 == 0) | (i01 == 0) | (i11 == 0)) continue;
         double inv = (1 - fy) * ((1 - fx) * i00 + fx * i10) + fy * ((1 - fx) * i01 + fx * i11);
 
         if (lateral) {
@@ -115,7 +146,7 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
           const double c = std::max(cos_incidence, 0.1);
           const double theta = std::acos(std::min(c, 1.0));
           const double sigma_px = 0.8 + 0.035 * theta / std::max(M_PI / 2 - theta, 1e-3);
-          const double delta = lateral_noise * sigma_px * z / k.fx;
+          const double delta = lateral_noise[x] * sigma_px * z / k.fx;
           const double ray_x = (x - k.cx) / k.fx, ray_y = (y - k.cy) / k.fy;
           z += delta / (c * std::sqrt(1.0 + ray_x * ray_x + ray_y * ray_y));
           if (z <= 0) continue;
@@ -123,7 +154,7 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
         }
 
         // Step 2: disparity noise and unbiased rounding to whole disparity units.
-        const double disparity = kDisparityTimesMetres * inv + disparity_noise + speckle_noise;
+        const double disparity = kDisparityTimesMetres * inv + disparity_noise[x] + speckle_noise[x];
         // floor(disparity + 0.5) > 0 exactly when disparity + 0.5 >= 1; below 2^31 the integer
         // conversion truncates, which for positive values is the floor (std::floor is a libm
         // sequence on the baseline x86-64 target).
@@ -136,8 +167,8 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
           z_noisy = kDisparityTimesMetres / std::floor(rounded);
         }
         // Step 3: sensor range.
-        if (z_noisy < options.min_depth_m || z_noisy > options.max_depth_m) continue;
-        noisy.at(x, y) = static_cast<float>(z_noisy);
+        if (z_noisy < min_depth || z_noisy > max_depth) continue;
+        noisy_row[x] = static_cast<float>(z_noisy);
       }
     }
   });
