@@ -33,6 +33,7 @@ struct Renderer::Impl {
   // computes a batch of lights in SIMD lanes instead of one sqrt and one division after the other
   // (the loop was half of the shading time). Padding lights have intensity 0 and are never summed.
   static constexpr int kLightBatch = 4;  // one SSE register
+  static constexpr float kAmbient = 0.35f;
   std::vector<float> light_x, light_y, light_z, light_intensity;
 
   explicit Impl(const Scene& s) : scene(s) {}
@@ -139,9 +140,9 @@ struct Renderer::Impl {
     }
   }
 
-  // `pixel_footprint_m`: the width of the surface patch one pixel sees (metres).
-  Eigen::Vector3f shade(unsigned triangle, float bu, float bv, const Eigen::Vector3f& point,
-                        const Eigen::Vector3f& ray_dir, float pixel_footprint_m) const {
+  // The surface colour before lighting: vertex colour, material albedo and texture (mip level by
+  // `pixel_footprint_m`, the width of the surface patch one pixel sees, in metres).
+  Eigen::Vector3f albedo_at(unsigned triangle, float bu, float bv, float pixel_footprint_m) const {
     const TriangleMesh& mesh = scene.mesh;
     Eigen::Vector3f albedo(0.8f, 0.8f, 0.8f);
     const bool vertex_coloured = !mesh.vertex_colours.empty();
@@ -161,9 +162,16 @@ struct Renderer::Impl {
             sample_texture(mip_level(material.texture, triangle, pixel_footprint_m), uv.x(), uv.y()));
       }
     }
+    return albedo;
+  }
+
+  // One pixel's colour: the reference for the row-wise shading of render_rows, which computes the
+  // same float operations in the same order for four pixels at a time (shade_row).
+  Eigen::Vector3f shade(unsigned triangle, float bu, float bv, const Eigen::Vector3f& point,
+                        const Eigen::Vector3f& ray_dir, float pixel_footprint_m) const {
+    const Eigen::Vector3f albedo = albedo_at(triangle, bu, bv, pixel_footprint_m);
     Eigen::Vector3f normal = triangle_normals[triangle];
     if (normal.dot(ray_dir) > 0) normal = -normal;
-    constexpr float kAmbient = 0.35f;
     float diffuse = 0.f;
     if (scene.lights.empty()) {
       diffuse = std::abs(normal.dot(ray_dir.normalized()));  // headlight fallback
@@ -301,44 +309,223 @@ inline void intersect_packet(const int* valid, RTCScene scene, RTCIntersectConte
   rtcIntersect16(valid, scene, context, packet);
 }
 
-// Fills one packet with the rays of pixels (x0 .. x0 + N - 1, y); lanes past the row end are invalid.
+// A packet of N neighbouring pixels of a row, its constant fields (origin, tnear, mask, ...) set
+// once per view. Directions have camera-z component 1, so the hit distance is the z-depth:
+// d = R (a, b, 1) with a = (x - cx) / fx per column and b = (y - cy) / fy per row, component i
+// evaluated as R(i,0) a + (R(i,1) b + R(i,2)), the order of Eigen's `rotation * Vector3f(a, b, 1)`,
+// so the rays are bit for bit the ones of the per-lane product this replaced (which, with all
+// fields written per lane, was a fifth of the rays stage).
 template <typename PacketRayHit>
-void setup_packet(PacketRayHit& packet, int* valid, const Eigen::Matrix3f& rotation, const Eigen::Vector3f& origin,
-                  const PinholeIntrinsics& k, int x0, int y) {
-  constexpr int kLanes = lanes_of<PacketRayHit>();
-  const float ray_y = float((y - k.cy) / k.fy);
-  for (int lane = 0; lane < kLanes; ++lane) {
-    const int x = std::min(x0 + lane, k.width - 1);
-    valid[lane] = x0 + lane < k.width ? -1 : 0;
-    // Camera-z component 1: the hit distance is the z-depth.
-    const Eigen::Vector3f d = rotation * Eigen::Vector3f(float((x - k.cx) / k.fx), ray_y, 1.f);
-    packet.ray.org_x[lane] = origin.x();
-    packet.ray.org_y[lane] = origin.y();
-    packet.ray.org_z[lane] = origin.z();
-    packet.ray.dir_x[lane] = d.x();
-    packet.ray.dir_y[lane] = d.y();
-    packet.ray.dir_z[lane] = d.z();
-    packet.ray.tnear[lane] = 0.f;
-    packet.ray.tfar[lane] = std::numeric_limits<float>::infinity();
-    packet.ray.time[lane] = 0.f;
-    packet.ray.mask[lane] = 0xFFFFFFFFu;  // Debian's Embree has ray masks on: mask 0 hits nothing
-    packet.ray.id[lane] = 0;
-    packet.ray.flags[lane] = 0;
-    packet.hit.geomID[lane] = RTC_INVALID_GEOMETRY_ID;
-    packet.hit.instID[0][lane] = RTC_INVALID_GEOMETRY_ID;
-  }
-}
+class PacketRow {
+ public:
+  static constexpr int kLanes = lanes_of<PacketRayHit>();
 
-// One traced ray of a row, kept between the intersection and the shading pass.
-struct TracedRay {
-  float t, u, v;
-  unsigned triangle;  // RTC_INVALID_GEOMETRY_ID: no hit
-  float dir_x, dir_y, dir_z;
+  PacketRow(const Rigid3d& world_from_cam, const PinholeIntrinsics& k)
+      : k_(k), rotation_(world_from_cam.linear().cast<float>()) {
+    const Eigen::Vector3f origin = world_from_cam.translation().cast<float>();
+    const int padded = (k.width + kLanes - 1) / kLanes * kLanes;
+    column_.resize(padded);
+    // Lanes past the row end repeat the last column (and are invalid).
+    for (int x = 0; x < padded; ++x) column_[x] = float((std::min(x, k.width - 1) - k.cx) / k.fx);
+    for (int lane = 0; lane < kLanes; ++lane) {
+      packet_.ray.org_x[lane] = origin.x();
+      packet_.ray.org_y[lane] = origin.y();
+      packet_.ray.org_z[lane] = origin.z();
+      packet_.ray.tnear[lane] = 0.f;
+      packet_.ray.time[lane] = 0.f;
+      packet_.ray.mask[lane] = 0xFFFFFFFFu;  // Debian's Embree has ray masks on: mask 0 hits nothing
+      packet_.ray.id[lane] = 0;
+      packet_.ray.flags[lane] = 0;
+    }
+  }
+
+  void start_row(int y) {
+    const float b = float((y - k_.cy) / k_.fy);
+    for (int i = 0; i < 3; ++i) row_term_[i] = rotation_(i, 1) * b + rotation_(i, 2);
+  }
+
+  // Traces pixels (x0 .. x0 + N - 1) of the row; lanes past the row end are invalid and miss.
+  void trace(RTCScene scene, RTCIntersectContext* context, int x0) {
+    const float* a = &column_[x0];
+    const float r00 = rotation_(0, 0), r10 = rotation_(1, 0), r20 = rotation_(2, 0);
+    for (int lane = 0; lane < kLanes; ++lane) {
+      valid_[lane] = x0 + lane < k_.width ? -1 : 0;
+      packet_.ray.dir_x[lane] = r00 * a[lane] + row_term_[0];
+      packet_.ray.dir_y[lane] = r10 * a[lane] + row_term_[1];
+      packet_.ray.dir_z[lane] = r20 * a[lane] + row_term_[2];
+      packet_.ray.tfar[lane] = std::numeric_limits<float>::infinity();
+      packet_.hit.geomID[lane] = RTC_INVALID_GEOMETRY_ID;
+      packet_.hit.instID[0][lane] = RTC_INVALID_GEOMETRY_ID;
+    }
+    intersect_packet(valid_, scene, context, &packet_);
+  }
+
+  const PacketRayHit& packet() const { return packet_; }
+  bool valid(int lane) const { return valid_[lane] != 0; }
+
+ private:
+  alignas(64) PacketRayHit packet_;
+  alignas(64) int valid_[kLanes];
+  const PinholeIntrinsics& k_;
+  Eigen::Matrix3f rotation_;
+  std::vector<float> column_;
+  float row_term_[3] = {0.f, 0.f, 0.f};
+};
+
+// One row between the intersection and the shading passes, structure of arrays padded to whole
+// packets, so that the shading passes run four pixels per SSE operation.
+struct RowScratch {
+  explicit RowScratch(int padded_width)
+      : t(padded_width), u(padded_width), v(padded_width), dir_x(padded_width), dir_y(padded_width),
+        dir_z(padded_width), triangle(padded_width), hit(padded_width), normal_x(padded_width),
+        normal_y(padded_width), normal_z(padded_width), point_x(padded_width), point_y(padded_width),
+        point_z(padded_width), footprint(padded_width), incidence(padded_width), depth(padded_width),
+        albedo_r(padded_width), albedo_g(padded_width), albedo_b(padded_width), diffuse(padded_width),
+        rgb(3 * std::size_t(padded_width)) {}
+  std::vector<float> t, u, v, dir_x, dir_y, dir_z;
+  std::vector<unsigned> triangle;  // RTC_INVALID_GEOMETRY_ID: no hit
+  std::vector<std::int32_t> hit;   // all ones for a hit, 0 for none: an SSE mask
+  // The triangle's normal turned towards the ray, the hit point, and the pixel's footprint.
+  std::vector<float> normal_x, normal_y, normal_z, point_x, point_y, point_z, footprint, incidence, depth;
+  std::vector<float> albedo_r, albedo_g, albedo_b, diffuse;
+  std::vector<std::int32_t> rgb;  // three planes of the row's 8-bit colour
 };
 
 std::int64_t now_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
       .count();
+}
+
+}  // namespace
+
+namespace {
+
+// The per-pixel geometry of a traced row, four pixels per SSE operation where the CPU has SSE2:
+// incidence, footprint, hit point and the normal turned towards the ray, each the same float
+// operations in the same order as Renderer::Impl::shade's callers compute them for one pixel.
+void row_geometry(RowScratch& row, int padded_width, const Eigen::Vector3f& origin, float inv_fx) {
+#if defined(__SSE2__)
+  const __m128 sign_bit = _mm_set1_ps(-0.f);
+  const __m128 origin_x = _mm_set1_ps(origin.x()), origin_y = _mm_set1_ps(origin.y()),
+               origin_z = _mm_set1_ps(origin.z());
+  for (int x = 0; x < padded_width; x += 4) {
+    const __m128 t = _mm_loadu_ps(&row.t[x]);
+    const __m128 dx = _mm_loadu_ps(&row.dir_x[x]), dy = _mm_loadu_ps(&row.dir_y[x]), dz = _mm_loadu_ps(&row.dir_z[x]);
+    const __m128 nx = _mm_loadu_ps(&row.normal_x[x]), ny = _mm_loadu_ps(&row.normal_y[x]),
+                 nz = _mm_loadu_ps(&row.normal_z[x]);
+    const __m128 hit = _mm_castsi128_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(&row.hit[x])));
+    // |d| and n.d as Eigen's norm() and dot() sum: x + (y + z).
+    const __m128 length =
+        _mm_sqrt_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_add_ps(_mm_mul_ps(dy, dy), _mm_mul_ps(dz, dz))));
+    const __m128 dot = _mm_add_ps(_mm_mul_ps(nx, dx), _mm_add_ps(_mm_mul_ps(ny, dy), _mm_mul_ps(nz, dz)));
+    const __m128 incidence = _mm_div_ps(_mm_andnot_ps(sign_bit, dot), length);
+    // A pixel covers range / f metres across the ray, stretched by 1 / cos along the slope;
+    // the geometric mean of the two keeps slanted floors sharp without aliasing.
+    const __m128 footprint = _mm_div_ps(_mm_mul_ps(_mm_mul_ps(t, length), _mm_set1_ps(inv_fx)),
+                                        _mm_sqrt_ps(_mm_max_ps(incidence, _mm_set1_ps(0.05f))));
+    const __m128 flip = _mm_and_ps(_mm_cmpgt_ps(dot, _mm_setzero_ps()), sign_bit);
+    _mm_storeu_ps(&row.normal_x[x], _mm_xor_ps(nx, flip));
+    _mm_storeu_ps(&row.normal_y[x], _mm_xor_ps(ny, flip));
+    _mm_storeu_ps(&row.normal_z[x], _mm_xor_ps(nz, flip));
+    _mm_storeu_ps(&row.point_x[x], _mm_add_ps(origin_x, _mm_mul_ps(t, dx)));
+    _mm_storeu_ps(&row.point_y[x], _mm_add_ps(origin_y, _mm_mul_ps(t, dy)));
+    _mm_storeu_ps(&row.point_z[x], _mm_add_ps(origin_z, _mm_mul_ps(t, dz)));
+    _mm_storeu_ps(&row.footprint[x], footprint);
+    _mm_storeu_ps(&row.incidence[x], _mm_and_ps(incidence, hit));
+    _mm_storeu_ps(&row.depth[x], _mm_and_ps(t, hit));
+  }
+#else
+  for (int x = 0; x < padded_width; ++x) {
+    const Eigen::Vector3f direction(row.dir_x[x], row.dir_y[x], row.dir_z[x]);
+    const Eigen::Vector3f normal(row.normal_x[x], row.normal_y[x], row.normal_z[x]);
+    const float t = row.t[x];
+    const float length = direction.norm();
+    const float dot = normal.dot(direction);
+    const float incidence = std::abs(dot) / length;
+    row.footprint[x] = t * length * inv_fx / std::sqrt(std::max(incidence, 0.05f));
+    const Eigen::Vector3f facing = dot > 0.f ? Eigen::Vector3f(-normal) : normal;
+    row.normal_x[x] = facing.x();
+    row.normal_y[x] = facing.y();
+    row.normal_z[x] = facing.z();
+    row.point_x[x] = origin.x() + t * direction.x();
+    row.point_y[x] = origin.y() + t * direction.y();
+    row.point_z[x] = origin.z() + t * direction.z();
+    row.incidence[x] = row.hit[x] ? incidence : 0.f;
+    row.depth[x] = row.hit[x] ? t : 0.f;
+  }
+#endif
+}
+
+// Lambert from the point lights, four pixels per SSE operation: per lane the float operations of
+// Renderer::Impl::shade's light loop, lights summed in the same order.
+void row_diffuse(RowScratch& row, int padded_width, const std::vector<float>& light_x, const std::vector<float>& light_y,
+                 const std::vector<float>& light_z, const std::vector<float>& light_intensity, std::size_t lights) {
+  const float light_count = float(lights);
+#if defined(__SSE2__)
+  for (int x = 0; x < padded_width; x += 4) {
+    const __m128 px = _mm_loadu_ps(&row.point_x[x]), py = _mm_loadu_ps(&row.point_y[x]),
+                 pz = _mm_loadu_ps(&row.point_z[x]);
+    const __m128 nx = _mm_loadu_ps(&row.normal_x[x]), ny = _mm_loadu_ps(&row.normal_y[x]),
+                 nz = _mm_loadu_ps(&row.normal_z[x]);
+    __m128 diffuse = _mm_setzero_ps();
+    for (std::size_t l = 0; l < lights; ++l) {
+      const __m128 tx = _mm_sub_ps(_mm_set1_ps(light_x[l]), px);
+      const __m128 ty = _mm_sub_ps(_mm_set1_ps(light_y[l]), py);
+      const __m128 tz = _mm_sub_ps(_mm_set1_ps(light_z[l]), pz);
+      const __m128 facing = _mm_add_ps(_mm_mul_ps(nx, tx), _mm_add_ps(_mm_mul_ps(ny, ty), _mm_mul_ps(nz, tz)));
+      const __m128 d2 = _mm_max_ps(_mm_add_ps(_mm_mul_ps(tx, tx), _mm_add_ps(_mm_mul_ps(ty, ty), _mm_mul_ps(tz, tz))),
+                                   _mm_set1_ps(1e-8f));
+      const __m128 numerator = _mm_mul_ps(_mm_mul_ps(_mm_set1_ps(light_intensity[l]), facing), _mm_set1_ps(2.f));
+      const __m128 denominator =
+          _mm_mul_ps(_mm_sqrt_ps(d2), _mm_add_ps(_mm_set1_ps(1.f), _mm_mul_ps(_mm_set1_ps(0.25f), d2)));
+      const __m128 value = _mm_div_ps(numerator, denominator);
+      diffuse = _mm_add_ps(diffuse, _mm_and_ps(value, _mm_cmpgt_ps(facing, _mm_setzero_ps())));
+    }
+    _mm_storeu_ps(&row.diffuse[x], _mm_min_ps(_mm_div_ps(diffuse, _mm_set1_ps(light_count)), _mm_set1_ps(1.2f)));
+  }
+#else
+  for (int x = 0; x < padded_width; ++x) {
+    float diffuse = 0.f;
+    for (std::size_t l = 0; l < lights; ++l) {
+      const float tx = light_x[l] - row.point_x[x];
+      const float ty = light_y[l] - row.point_y[x];
+      const float tz = light_z[l] - row.point_z[x];
+      const float facing = row.normal_x[x] * tx + (row.normal_y[x] * ty + row.normal_z[x] * tz);
+      const float d2 = std::max(tx * tx + (ty * ty + tz * tz), 1e-8f);
+      const float value = light_intensity[l] * facing * 2.f / (std::sqrt(d2) * (1.f + 0.25f * d2));
+      diffuse += facing > 0.f ? value : 0.f;
+    }
+    row.diffuse[x] = std::min(diffuse / light_count, 1.2f);
+  }
+#endif
+}
+
+// albedo * (ambient + (1 - ambient) * diffuse) to 8 bits, rounded and clamped as shade's callers do;
+// 0 where nothing was hit.
+void row_colour(RowScratch& row, int padded_width, float ambient) {
+  const std::size_t plane = std::size_t(padded_width);
+#if defined(__SSE2__)
+  for (int x = 0; x < padded_width; x += 4) {
+    const __m128 light = _mm_add_ps(_mm_set1_ps(ambient),
+                                    _mm_mul_ps(_mm_set1_ps(1.f - ambient), _mm_loadu_ps(&row.diffuse[x])));
+    const __m128i hit = _mm_loadu_si128(reinterpret_cast<const __m128i*>(&row.hit[x]));
+    const float* albedo[3] = {&row.albedo_r[x], &row.albedo_g[x], &row.albedo_b[x]};
+    for (int c = 0; c < 3; ++c) {
+      const __m128 scaled =
+          _mm_add_ps(_mm_mul_ps(_mm_mul_ps(_mm_loadu_ps(albedo[c]), light), _mm_set1_ps(255.f)), _mm_set1_ps(0.5f));
+      const __m128 clamped = _mm_min_ps(_mm_max_ps(scaled, _mm_setzero_ps()), _mm_set1_ps(255.f));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(&row.rgb[c * plane + x]),
+                       _mm_and_si128(_mm_cvttps_epi32(clamped), hit));
+    }
+  }
+#else
+  for (int x = 0; x < padded_width; ++x) {
+    const float light = ambient + (1.f - ambient) * row.diffuse[x];
+    const float albedo[3] = {row.albedo_r[x], row.albedo_g[x], row.albedo_b[x]};
+    for (int c = 0; c < 3; ++c)
+      row.rgb[c * plane + x] = row.hit[x] ? int(std::clamp(albedo[c] * light * 255.f + 0.5f, 0.f, 255.f)) : 0;
+  }
+#endif
 }
 
 }  // namespace
@@ -355,68 +542,88 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
         "(allocate it with allocate(intrinsics, request))");
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
-  // Primary camera rays are coherent: packets of 8 neighbouring pixels are Embree's fast path
+  // Primary camera rays are coherent: packets of neighbouring pixels are Embree's fast path
   // (about 4x the single-ray throughput on the CI machine, see benchmarks/render_benchmark).
   context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  alignas(64) RenderPacket packet;
-  alignas(64) int valid[kRenderLanes];
+  PacketRow<RenderPacket> rays(world_from_cam, k);
   const float inv_fx = float(1.0 / k.fx);
-  // One row at a time: all its packets first, then the shading of its pixels, so that the BVH and
-  // the textures each stay in cache for a whole pass, and the two passes can be timed apart.
-  std::vector<TracedRay> traced(k.width);
+  const int width = k.width;
+  const int padded_width = (width + kRenderLanes - 1) / kRenderLanes * kRenderLanes;
+  const Impl& impl = *impl_;
+  const Scene& scene = impl.scene;
+  // One row at a time: all its packets first, then its shading passes, so that the BVH and the
+  // textures each stay in cache for a whole pass, and the two can be timed apart.
+  RowScratch row(padded_width);
   std::int64_t rays_ns = 0, shading_ns = 0;
   for (int y = row_begin; y < row_end; ++y) {
     const std::int64_t start = times ? now_ns() : 0;
-    for (int x0 = 0; x0 < k.width; x0 += kRenderLanes) {
-      setup_packet(packet, valid, rotation, origin, k, x0, y);
-      intersect_packet(valid, impl_->rtc_scene, &context, &packet);
-      for (int lane = 0; lane < kRenderLanes && x0 + lane < k.width; ++lane) {
-        TracedRay& ray = traced[x0 + lane];
-        ray.t = packet.ray.tfar[lane];
-        ray.u = packet.hit.u[lane];
-        ray.v = packet.hit.v[lane];
-        ray.triangle =
-            packet.hit.geomID[lane] == RTC_INVALID_GEOMETRY_ID ? RTC_INVALID_GEOMETRY_ID : packet.hit.primID[lane];
-        ray.dir_x = packet.ray.dir_x[lane];
-        ray.dir_y = packet.ray.dir_y[lane];
-        ray.dir_z = packet.ray.dir_z[lane];
+    rays.start_row(y);
+    for (int x0 = 0; x0 < width; x0 += kRenderLanes) {
+      rays.trace(impl.rtc_scene, &context, x0);
+      const RenderPacket& packet = rays.packet();
+      for (int lane = 0; lane < kRenderLanes; ++lane) {
+        const int x = x0 + lane;
+        const bool hit = packet.hit.geomID[lane] != RTC_INVALID_GEOMETRY_ID;
+        row.t[x] = hit ? packet.ray.tfar[lane] : 0.f;
+        row.u[x] = packet.hit.u[lane];
+        row.v[x] = packet.hit.v[lane];
+        row.triangle[x] = hit ? packet.hit.primID[lane] : RTC_INVALID_GEOMETRY_ID;
+        row.hit[x] = hit ? -1 : 0;
+        row.dir_x[x] = packet.ray.dir_x[lane];
+        row.dir_y[x] = packet.ray.dir_y[lane];
+        row.dir_z[x] = packet.ray.dir_z[lane];
       }
     }
     const std::int64_t traced_at = times ? now_ns() : 0;
-    for (int x = 0; x < k.width; ++x) {
-      const TracedRay& ray = traced[x];
-      if (ray.triangle == RTC_INVALID_GEOMETRY_ID) {
-        out.depth.at(x, y) = 0.f;
-        out.incidence_cos.at(x, y) = 0.f;
-        out.triangle_id.at(x, y) = -1;
-        for (int c = 0; c < 3; ++c) out.rgb.at(x, y, c) = 0;
-        if (request.normals)
-          for (int c = 0; c < 3; ++c) out.normal_cam.at(x, y, c) = 0.f;
-        continue;
-      }
-      const unsigned triangle = ray.triangle;
-      const float t = ray.t;
-      const Eigen::Vector3f direction(ray.dir_x, ray.dir_y, ray.dir_z);
-      out.depth.at(x, y) = t;
-      out.triangle_id.at(x, y) = static_cast<int>(triangle);
-      const Eigen::Vector3f& normal = impl_->triangle_normals[triangle];
-      const float ray_length = direction.norm();
-      const float cos_incidence = std::abs(normal.dot(direction)) / ray_length;
-      out.incidence_cos.at(x, y) = cos_incidence;
-      if (request.normals) {
-        // The side the ray arrives from: a one-sided mesh seen from behind still gets a normal
-        // that faces the camera, as the shading does.
-        const Eigen::Vector3f facing = normal.dot(direction) > 0.f ? Eigen::Vector3f(-normal) : normal;
-        const Eigen::Vector3f normal_cam = cam_from_world_rotation * facing;
-        for (int c = 0; c < 3; ++c) out.normal_cam.at(x, y, c) = normal_cam[c];
-      }
-      // A pixel covers range / f metres across the ray, stretched by 1 / cos along the slope;
-      // the geometric mean of the two keeps slanted floors sharp without aliasing.
-      const float footprint = t * ray_length * inv_fx / std::sqrt(std::max(cos_incidence, 0.05f));
-      const Eigen::Vector3f colour = impl_->shade(triangle, ray.u, ray.v, origin + t * direction, direction, footprint);
-      for (int c = 0; c < 3; ++c)
-        out.rgb.at(x, y, c) = static_cast<std::uint8_t>(std::clamp(colour[c] * 255.f + 0.5f, 0.f, 255.f));
+
+    for (int x = 0; x < padded_width; ++x) {
+      // A miss gets a placeholder normal: its lanes compute values that are then discarded.
+      const Eigen::Vector3f& normal =
+          row.hit[x] ? impl.triangle_normals[row.triangle[x]] : Eigen::Vector3f::UnitZ().eval();
+      row.normal_x[x] = normal.x();
+      row.normal_y[x] = normal.y();
+      row.normal_z[x] = normal.z();
     }
+    row_geometry(row, padded_width, origin, inv_fx);
+    std::memcpy(out.depth.row(y), row.depth.data(), sizeof(float) * width);
+    std::memcpy(out.incidence_cos.row(y), row.incidence.data(), sizeof(float) * width);
+    std::int32_t* triangle_ids = out.triangle_id.row(y);
+    for (int x = 0; x < width; ++x) triangle_ids[x] = row.hit[x] ? static_cast<int>(row.triangle[x]) : -1;
+    if (request.normals) {
+      // The side the ray arrives from: a one-sided mesh seen from behind still gets a normal
+      // that faces the camera, as the shading does (row_geometry turned it).
+      float* normals = out.normal_cam.row(y);
+      for (int x = 0; x < width; ++x) {
+        const Eigen::Vector3f normal_cam =
+            row.hit[x] ? Eigen::Vector3f(cam_from_world_rotation *
+                                         Eigen::Vector3f(row.normal_x[x], row.normal_y[x], row.normal_z[x]))
+                       : Eigen::Vector3f::Zero().eval();
+        for (int c = 0; c < 3; ++c) normals[3 * x + c] = normal_cam[c];
+      }
+    }
+    for (int x = 0; x < padded_width; ++x) {
+      const Eigen::Vector3f albedo = row.hit[x] ? impl.albedo_at(row.triangle[x], row.u[x], row.v[x], row.footprint[x])
+                                                : Eigen::Vector3f::Zero().eval();
+      row.albedo_r[x] = albedo.x();
+      row.albedo_g[x] = albedo.y();
+      row.albedo_b[x] = albedo.z();
+    }
+    if (!scene.lights.empty()) {
+      row_diffuse(row, padded_width, impl.light_x, impl.light_y, impl.light_z, impl.light_intensity,
+                  scene.lights.size());
+    } else {
+      for (int x = 0; x < padded_width; ++x) {
+        // Headlight fallback, as shade computes it.
+        const Eigen::Vector3f direction(row.dir_x[x], row.dir_y[x], row.dir_z[x]);
+        const Eigen::Vector3f normal(row.normal_x[x], row.normal_y[x], row.normal_z[x]);
+        row.diffuse[x] = row.hit[x] ? std::abs(normal.dot(direction.normalized())) : 0.f;
+      }
+    }
+    row_colour(row, padded_width, Impl::kAmbient);
+    std::uint8_t* rgb = out.rgb.row(y);
+    const std::size_t plane = std::size_t(padded_width);
+    for (int x = 0; x < width; ++x)
+      for (int c = 0; c < 3; ++c) rgb[3 * x + c] = static_cast<std::uint8_t>(row.rgb[c * plane + x]);
     if (times) {
       const std::int64_t end = now_ns();
       rays_ns += traced_at - start;
@@ -497,22 +704,22 @@ namespace {
 template <typename PacketRayHit>
 std::size_t intersect_rows(RTCScene scene, const Rigid3d& world_from_cam, const PinholeIntrinsics& k, int row_begin,
                            int row_end) {
-  constexpr int kLanes = lanes_of<PacketRayHit>();
-  const Eigen::Matrix3f rotation = world_from_cam.linear().cast<float>();
-  const Eigen::Vector3f origin = world_from_cam.translation().cast<float>();
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  alignas(64) PacketRayHit packet;
-  alignas(64) int valid[kLanes];
+  // The renderer's own packet set-up, so that the reference differs from the render by the
+  // shading alone.
+  PacketRow<PacketRayHit> rays(world_from_cam, k);
+  constexpr int kLanes = PacketRow<PacketRayHit>::kLanes;
   std::size_t hits = 0;
-  for (int y = row_begin; y < row_end; ++y)
+  for (int y = row_begin; y < row_end; ++y) {
+    rays.start_row(y);
     for (int x0 = 0; x0 < k.width; x0 += kLanes) {
-      setup_packet(packet, valid, rotation, origin, k, x0, y);
-      intersect_packet(valid, scene, &context, &packet);
+      rays.trace(scene, &context, x0);
       for (int lane = 0; lane < kLanes; ++lane)
-        hits += valid[lane] && packet.hit.geomID[lane] != RTC_INVALID_GEOMETRY_ID;
+        hits += rays.valid(lane) && rays.packet().hit.geomID[lane] != RTC_INVALID_GEOMETRY_ID;
     }
+  }
   return hits;
 }
 
