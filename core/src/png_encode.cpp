@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 
 #include <libdeflate.h>
 
@@ -83,12 +84,15 @@ std::string encode(const std::uint8_t* raw, int width, int height, int channels,
     throw make_error("<png>", "compression", "expected an integer in [0, 9], found " + std::to_string(compression));
   const int bpp = channels * bit_depth / 8;
   const std::size_t row_bytes = std::size_t(width) * bpp;
-  std::vector<std::uint8_t> filtered((row_bytes + 1) * height);
+  // Not value-initialised: every byte is written below, and zeroing a frame's worth first was a
+  // pass over memory per image.
+  const std::size_t filtered_size = (row_bytes + 1) * height;
+  const std::unique_ptr<std::uint8_t[]> filtered(new std::uint8_t[filtered_size]);
   std::vector<std::uint8_t> zero_row(row_bytes, 0), candidate(row_bytes);
   for (int y = 0; y < height; ++y) {
     const std::uint8_t* row = raw + row_bytes * y;
     const std::uint8_t* prior = y > 0 ? row - row_bytes : zero_row.data();
-    std::uint8_t* out = &filtered[(row_bytes + 1) * y];
+    std::uint8_t* out = filtered.get() + (row_bytes + 1) * y;
     if (compression == 0) {
       out[0] = 0;  // stored: filtering would only cost time
       std::memcpy(out + 1, row, row_bytes);
@@ -113,9 +117,10 @@ std::string encode(const std::uint8_t* raw, int width, int height, int channels,
   // measurements are in sim/README.md). Level 0 maps to its "store" level.
   libdeflate_compressor* compressor = libdeflate_alloc_compressor(compression);
   if (!compressor) throw make_error("<png>", "", "libdeflate: cannot allocate a compressor");
-  std::vector<std::uint8_t> compressed(libdeflate_zlib_compress_bound(compressor, filtered.size()));
+  const std::size_t bound = libdeflate_zlib_compress_bound(compressor, filtered_size);
+  const std::unique_ptr<std::uint8_t[]> compressed(new std::uint8_t[bound]);
   const std::size_t compressed_size =
-      libdeflate_zlib_compress(compressor, filtered.data(), filtered.size(), compressed.data(), compressed.size());
+      libdeflate_zlib_compress(compressor, filtered.get(), filtered_size, compressed.get(), bound);
   libdeflate_free_compressor(compressor);
   if (compressed_size == 0) throw make_error("<png>", "", "libdeflate: compression failed");
 
@@ -135,7 +140,7 @@ std::string encode(const std::uint8_t* raw, int width, int height, int channels,
   header[9] = channels == 3 ? 2 : 0;         // colour type: truecolour or greyscale
   header[10] = header[11] = header[12] = 0;  // deflate, adaptive filtering, no interlace
   put_chunk(png, "IHDR", header, sizeof header);
-  put_chunk(png, "IDAT", compressed.data(), compressed_size);
+  put_chunk(png, "IDAT", compressed.get(), compressed_size);
   put_chunk(png, "IEND", nullptr, 0);
   return png;
 }
@@ -159,7 +164,8 @@ std::string encode_png(const ImageU8& image, int compression) {
 
 std::string encode_png16(const ImageU16& image, int compression) {
   check_encodable(image.width, image.height, image.channels, image.data.size(), 1 << 1);
-  std::vector<std::uint8_t> big_endian(image.data.size() * 2);
+  const std::size_t bytes = image.data.size() * 2;
+  const std::unique_ptr<std::uint8_t[]> big_endian(new std::uint8_t[bytes]);  // every byte written below
   for (std::size_t i = 0; i < image.data.size(); ++i) {
     big_endian[2 * i] = std::uint8_t(image.data[i] >> 8);
     big_endian[2 * i + 1] = std::uint8_t(image.data[i]);
@@ -167,7 +173,7 @@ std::string encode_png16(const ImageU16& image, int compression) {
   // No filter at the fast levels: depth's runs of zeros (no measurement) and of equal quantised
   // values are matches as they stand; on simulated frames at level 1 this is both the fastest and
   // the smallest (Sub +10%, Up and Paeth +50% in size).
-  return encode(big_endian.data(), image.width, image.height, 1, 16, compression, 0);
+  return encode(big_endian.get(), image.width, image.height, 1, 16, compression, 0);
 }
 
 }  // namespace panoscan

@@ -58,6 +58,25 @@ struct Renderer::Impl {
     if (y1 >= texture.height) y1 -= texture.height;
     x0 = std::min(x0, texture.width - 1);  // guards rounding at wrapped_u -> 1
     y0 = std::min(y0, texture.height - 1);
+#if defined(__SSE2__)
+    // The three channels in SSE lanes (the fourth is unused): per lane the float operations of the
+    // Eigen expression below, in its order, so the colour is the same.
+    auto texel = [&](int x, int y) {
+      const std::uint8_t* p = &texture.rgb[(std::size_t(y) * texture.width + x) * 3];
+      const __m128i bytes = _mm_cvtsi32_si128(int(std::uint32_t(p[0]) | std::uint32_t(p[1]) << 8 | std::uint32_t(p[2]) << 16));
+      const __m128i zero = _mm_setzero_si128();
+      return _mm_cvtepi32_ps(_mm_unpacklo_epi16(_mm_unpacklo_epi8(bytes, zero), zero));
+    };
+    const __m128 weight_x0 = _mm_set1_ps(1 - ax), weight_x1 = _mm_set1_ps(ax);
+    const __m128 top = _mm_add_ps(_mm_mul_ps(weight_x0, texel(x0, y0)), _mm_mul_ps(weight_x1, texel(x1, y0)));
+    const __m128 bottom = _mm_add_ps(_mm_mul_ps(weight_x0, texel(x0, y1)), _mm_mul_ps(weight_x1, texel(x1, y1)));
+    const __m128 blended =
+        _mm_mul_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(1 - ay), top), _mm_mul_ps(_mm_set1_ps(ay), bottom)),
+                   _mm_set1_ps(1.0f / 255.0f));
+    alignas(16) float lanes[4];
+    _mm_store_ps(lanes, blended);
+    return Eigen::Vector3f(lanes[0], lanes[1], lanes[2]);
+#else
     auto texel = [&](int x, int y) {
       const std::uint8_t* p = &texture.rgb[(std::size_t(y) * texture.width + x) * 3];
       return Eigen::Vector3f(p[0], p[1], p[2]);
@@ -65,6 +84,7 @@ struct Renderer::Impl {
     return ((1 - ay) * ((1 - ax) * texel(x0, y0) + ax * texel(x1, y0)) +
             ay * ((1 - ax) * texel(x0, y1) + ax * texel(x1, y1))) *
            (1.0f / 255.0f);
+#endif
   }
 
   // Simple, view-independent shading: ambient + Lambert from the scene's point lights, no
