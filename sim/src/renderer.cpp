@@ -656,6 +656,50 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
   }
 }
 
+RenderedView Renderer::render_per_pixel(const Rigid3d& world_from_cam, const PinholeIntrinsics& k,
+                                        const RenderRequest& request) const {
+  RenderedView out = allocate(k, request);
+  const Eigen::Matrix3f rotation = world_from_cam.linear().cast<float>();
+  const Eigen::Vector3f origin = world_from_cam.translation().cast<float>();
+  const Eigen::Matrix3f cam_from_world_rotation = rotation.transpose();
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  PacketRow<RenderPacket> rays(world_from_cam, k);
+  const float inv_fx = float(1.0 / k.fx);
+  for (int y = 0; y < k.height; ++y) {
+    rays.start_row(y);
+    for (int x0 = 0; x0 < k.width; x0 += kRenderLanes) {
+      rays.trace(impl_->rtc_scene, &context, x0);
+      const RenderPacket& packet = rays.packet();
+      for (int lane = 0; lane < kRenderLanes && x0 + lane < k.width; ++lane) {
+        const int x = x0 + lane;
+        if (packet.hit.geomID[lane] == RTC_INVALID_GEOMETRY_ID) continue;  // allocate() filled the misses
+        const unsigned triangle = packet.hit.primID[lane];
+        const float t = packet.ray.tfar[lane];
+        const Eigen::Vector3f direction(packet.ray.dir_x[lane], packet.ray.dir_y[lane], packet.ray.dir_z[lane]);
+        out.depth.at(x, y) = t;
+        out.triangle_id.at(x, y) = static_cast<int>(triangle);
+        const Eigen::Vector3f& normal = impl_->triangle_normals[triangle];
+        const float ray_length = direction.norm();
+        const float cos_incidence = std::abs(normal.dot(direction)) / ray_length;
+        out.incidence_cos.at(x, y) = cos_incidence;
+        if (request.normals) {
+          const Eigen::Vector3f facing = normal.dot(direction) > 0.f ? Eigen::Vector3f(-normal) : normal;
+          const Eigen::Vector3f normal_cam = cam_from_world_rotation * facing;
+          for (int c = 0; c < 3; ++c) out.normal_cam.at(x, y, c) = normal_cam[c];
+        }
+        const float footprint = t * ray_length * inv_fx / std::sqrt(std::max(cos_incidence, 0.05f));
+        const Eigen::Vector3f colour =
+            impl_->shade(triangle, packet.hit.u[lane], packet.hit.v[lane], origin + t * direction, direction, footprint);
+        for (int c = 0; c < 3; ++c)
+          out.rgb.at(x, y, c) = static_cast<std::uint8_t>(std::clamp(colour[c] * 255.f + 0.5f, 0.f, 255.f));
+      }
+    }
+  }
+  return out;
+}
+
 RenderedView Renderer::render(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics,
                               const RenderRequest& request, RenderTimes* times) const {
   RenderedView view = allocate(intrinsics, request);

@@ -52,6 +52,10 @@ class Renderer {
   RenderedView render(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics,
                       const RenderRequest& request = {}, RenderTimes* times = nullptr) const;
   static RenderedView allocate(const PinholeIntrinsics& intrinsics, const RenderRequest& request = {});
+  // The same view shaded one pixel at a time (the same ray packets, then the scalar shading code
+  // the panorama renderer uses): the reference render() must match bit for bit. Slower; for tests.
+  RenderedView render_per_pixel(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics,
+                                const RenderRequest& request = {}) const;
 
   // Noiseless equirectangular panorama seen from the origin of `world_from_pano` (its z axis is
   // the panorama's up direction): `depth` holds the radial distance (not z), colour and ids as
