@@ -1,5 +1,6 @@
 // The depth noise model of docs/ARCHITECTURE.md §4 (Handa et al. 2014), checked statistically through the
 // whole renderer on a real wall.
+#include <algorithm>
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -203,4 +204,49 @@ TEST(DepthNoise, InterferenceSpeckleOnlyInTheOverlapBand) {
       if (noisy.at(x, y) == 0.f) ++(y < 10 ? band_holes : other_holes);
   EXPECT_NEAR(band_holes / 640.0, 0.5, 0.08);
   EXPECT_EQ(other_holes, 0);
+}
+
+// Where the CPU has AVX2 the Handa model runs four pixels at a time; it must give, bit for bit, the
+// scalar loop's depth (DepthNoiseInput::scalar_only). The input exercises every branch: no hit,
+// out of range, grazing incidence, invalid bilinear neighbours, the speckle band's holes, a width
+// that is not a multiple of 4, the border clamp, and depths so near (down to 2 cm, with the range
+// opened for it) that their disparity is beyond the 1/q table.
+TEST(DepthNoise, VectorisedModelIsBitIdenticalToTheScalarLoop) {
+  const PinholeIntrinsics k = PinholeIntrinsics::primesense(83, 61);
+  ImageF32 clean(k.width, k.height, 1, 0.f), incidence(k.width, k.height, 1, 0.f);
+  for (int y = 0; y < k.height; ++y)
+    for (int x = 0; x < k.width; ++x) {
+      float z = 0.02f + 0.11f * float((x * 7 + y * 13) % 97);  // 2 cm .. 10.6 m, with jumps
+      if ((x * 31 + y * 17) % 23 == 0) z = 0.f;                  // scattered holes
+      if (x > 40 && x < 47 && y > 10 && y < 30) z = 0.f;           // a larger hole
+      clean.at(x, y) = z;
+      incidence.at(x, y) = float(0.05 + 0.95 * ((x * 11 + y * 5) % 41) / 40.0);  // some beyond 82 degrees
+    }
+  for (const double min_depth : {0.5, 0.01}) {
+    NoiseOptions options;
+    options.min_depth_m = min_depth;
+    options.max_depth_m = 9.0;
+    options.ir_speckle = true;
+    options.ir_band_fraction = 0.2;
+    options.shift_std_px = 2.0;  // reaches the border clamp and the invalid neighbours often
+    DepthNoiseInput input;
+    input.clean_depth = &clean;
+    input.incidence_cos = &incidence;
+    input.intrinsics = &k;
+    input.sensor = 1;
+    input.frame = 7;
+    input.speckle_top = true;
+    input.speckle_bottom = true;
+    const ImageF32 fast = apply_depth_noise(input, options, 5);
+    input.scalar_only = true;
+    const ImageF32 scalar = apply_depth_noise(input, options, 5);
+    ASSERT_EQ(fast.data, scalar.data) << "min depth " << min_depth;
+    const auto valid = std::count_if(scalar.data.begin(), scalar.data.end(), [](float z) { return z > 0.f; });
+    EXPECT_GT(valid, k.width * k.height / 5);
+    EXPECT_LT(valid, k.width * k.height * 4 / 5);
+    if (min_depth < 0.05) {  // depths under 9 cm: disparities past the table
+      const auto near = std::count_if(scalar.data.begin(), scalar.data.end(), [](float z) { return z > 0.f && z < 0.086f; });
+      EXPECT_GT(near, 0);
+    }
+  }
 }

@@ -162,7 +162,7 @@ struct Renderer::Impl {
 
   // The surface colour before lighting: vertex colour, material albedo and texture (mip level by
   // `pixel_footprint_m`, the width of the surface patch one pixel sees, in metres).
-  Eigen::Vector3f albedo_at(unsigned triangle, float bu, float bv, float pixel_footprint_m) const {
+  __attribute__((always_inline)) Eigen::Vector3f albedo_at(unsigned triangle, float bu, float bv, float pixel_footprint_m) const {
     const TriangleMesh& mesh = scene.mesh;
     Eigen::Vector3f albedo(0.8f, 0.8f, 0.8f);
     const bool vertex_coloured = !mesh.vertex_colours.empty();

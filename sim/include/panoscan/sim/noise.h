@@ -29,6 +29,9 @@ struct DepthNoiseInput {
   // Rows near the top / bottom edge that overlap a neighbouring camera's projector (speckle).
   bool speckle_top = false;
   bool speckle_bottom = false;
+  // The Handa model runs four pixels per AVX2 operation where the CPU has AVX2, bit for bit the
+  // scalar loop's result; true forces the scalar loop (the reference the tests compare with).
+  bool scalar_only = false;
 };
 
 // Returns the noisy depth (metres, 0 = invalid). Deterministic in (seed, sensor, frame).
