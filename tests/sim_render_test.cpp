@@ -205,11 +205,19 @@ TEST(Renderer, RowShadingIsBitIdenticalToThePerPixelShading) {
       EXPECT_EQ(rows.triangle_id.data, pixels.triangle_id.data);
       EXPECT_EQ(rows.normal_cam.data, pixels.normal_cam.data);
       EXPECT_EQ(rows.rgb.data, pixels.rgb.data);
+      // A depth-only view: the same geometry, no colour.
+      RenderRequest depth_only = request;
+      depth_only.colour = false;
+      const RenderedView geometry = renderer.render(pose, k, depth_only);
+      EXPECT_EQ(geometry.depth.data, rows.depth.data);
+      EXPECT_EQ(geometry.normal_cam.data, rows.normal_cam.data);
+      EXPECT_EQ(std::count(geometry.rgb.data.begin(), geometry.rgb.data.end(), 0), std::ptrdiff_t(geometry.rgb.data.size()));
       // Not vacuous: hits with different colours, and misses.
       const std::set<std::uint8_t> reds(rows.rgb.data.begin(), rows.rgb.data.end());
       EXPECT_GT(reds.size(), 20u);
-      if (&pose == &views[0])  // the open top
+      if (&pose == &views[0]) {  // the open top
         EXPECT_GT(std::count(rows.triangle_id.data.begin(), rows.triangle_id.data.end(), -1), 0);
+      }
     }
   }
 }

@@ -673,6 +673,14 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
         for (int c = 0; c < 3; ++c) normals[3 * x + c] = normal_cam[c];
       }
     }
+    if (!request.colour) {
+      if (times) {
+        const std::int64_t end = now_ns();
+        rays_ns += traced_at - start;
+        shading_ns += end - traced_at;
+      }
+      continue;  // rgb stays as allocate() made it: black
+    }
     for (int x = 0; x < padded_width; ++x) {
       const Eigen::Vector3f albedo = row.hit[x] ? impl.albedo_at(row.triangle[x], row.u[x], row.v[x], row.footprint[x])
                                                 : Eigen::Vector3f::Zero().eval();

@@ -284,8 +284,10 @@ double Simulator::probe_depth_coverage() const {
     tbb::parallel_for(std::size_t(0), probes.size(), [&](std::size_t k) {
       // The clean depth within the sensor's range, as render_frame makes it, without the noise and
       // colour steps that render_frame would spend on a frame that is never written.
+      RenderRequest depth_only;
+      depth_only.colour = false;
       const RenderedView view =
-          renderer_.render(world_from_cam(probes[k].sensor, probes[k].timestamp), rig_.intrinsics);
+          renderer_.render(world_from_cam(probes[k].sensor, probes[k].timestamp), rig_.intrinsics, depth_only);
       for (float z : view.depth.data)
         valid[k] += z > 0.f && z >= options_.noise.min_depth_m && z <= options_.noise.max_depth_m;
       pixels[k] = view.depth.data.size();

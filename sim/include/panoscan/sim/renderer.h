@@ -28,6 +28,7 @@ struct RenderedView {
 // What a pinhole render produces beyond depth, colour, incidence and triangle ids (always made).
 struct RenderRequest {
   bool normals = false;  // normal_cam: off by default, so views that do not need it skip the per-pixel cost
+  bool colour = true;    // rgb: false leaves it black and skips the texture and lighting (depth-only views)
 };
 
 // Where render() / render_rows() spend their time, for the simulator's stage breakdown: thread
