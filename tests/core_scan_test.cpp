@@ -364,8 +364,8 @@ TEST(RigJson, BadRigFilesAreRejectedNamingTheField) {
       {"other version", [](json& j) { j["version"] = 2; }, "rig.json: version: ", "expected 1, found 2"},
       {"version as text", [](json& j) { j["version"] = "1"; }, "rig.json: version: ", "expected an integer"},
       {"no sensors", [](json& j) { j["sensors"] = json::array(); }, "rig.json: sensors: ", "no sensors"},
-      {"unknown motion", [](json& j) { j["motion"] = "robot"; }, "rig.json: motion: ",
-       "expected 'rotator' or 'handheld', found 'robot'"},
+      {"unknown motion", [](json& j) { j["motion"] = "robot"; },
+       "rig.json: motion: ", "expected 'rotator' or 'handheld', found 'robot'"},
       {"motion not a string", [](json& j) { j["motion"] = 1; }, "rig.json: motion: ", "expected a string"},
       {"sensors not a list", [](json& j) { j["sensors"] = 3; }, "rig.json: sensors: ", "expected a list"},
       {"sensors missing", [](json& j) { j.erase("sensors"); }, "rig.json: sensors: ", "missing field"},
@@ -851,7 +851,8 @@ TEST(DepthUnits, RoundsAsLroundAtAndAroundHalfUnits) {
     const ImageU16 units = depth_to_png_units(depth, scale);
     for (std::size_t i = 0; i < values.size(); ++i) {
       const double scaled = double(values[i]) * scale;
-      const long expected = values[i] > 0 && scaled <= 65535.5 && std::lround(scaled) <= 65535 ? std::lround(scaled) : 0;
+      const long expected =
+          values[i] > 0 && scaled <= 65535.5 && std::lround(scaled) <= 65535 ? std::lround(scaled) : 0;
       ASSERT_EQ(units.data[i], expected) << "depth " << values[i] << " m at scale " << scale;
     }
   }

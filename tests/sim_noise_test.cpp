@@ -217,8 +217,8 @@ TEST(DepthNoise, VectorisedModelIsBitIdenticalToTheScalarLoop) {
   for (int y = 0; y < k.height; ++y)
     for (int x = 0; x < k.width; ++x) {
       float z = 0.02f + 0.11f * float((x * 7 + y * 13) % 97);  // 2 cm .. 10.6 m, with jumps
-      if ((x * 31 + y * 17) % 23 == 0) z = 0.f;                  // scattered holes
-      if (x > 40 && x < 47 && y > 10 && y < 30) z = 0.f;           // a larger hole
+      if ((x * 31 + y * 17) % 23 == 0) z = 0.f;                // scattered holes
+      if (x > 40 && x < 47 && y > 10 && y < 30) z = 0.f;       // a larger hole
       clean.at(x, y) = z;
       incidence.at(x, y) = float(0.05 + 0.95 * ((x * 11 + y * 5) % 41) / 40.0);  // some beyond 82 degrees
     }
@@ -245,7 +245,8 @@ TEST(DepthNoise, VectorisedModelIsBitIdenticalToTheScalarLoop) {
     EXPECT_GT(valid, k.width * k.height / 5);
     EXPECT_LT(valid, k.width * k.height * 4 / 5);
     if (min_depth < 0.05) {  // depths under 9 cm: disparities past the table
-      const auto near = std::count_if(scalar.data.begin(), scalar.data.end(), [](float z) { return z > 0.f && z < 0.086f; });
+      const auto near =
+          std::count_if(scalar.data.begin(), scalar.data.end(), [](float z) { return z > 0.f && z < 0.086f; });
       EXPECT_GT(near, 0);
     }
   }

@@ -185,7 +185,8 @@ TEST(Renderer, NormalsAreTheHitTrianglesInTheCameraFrameFacingTheCamera) {
 TEST(Renderer, RowShadingIsBitIdenticalToThePerPixelShading) {
   Scene lit = open_top_room();
   lit.lights.clear();
-  for (int i = 0; i < 5; ++i) lit.lights.push_back({Eigen::Vector3f(-1.5f + 1.1f * i, 0.4f * i - 1.f, 2.4f), 0.5f + 0.2f * i});
+  for (int i = 0; i < 5; ++i)
+    lit.lights.push_back({Eigen::Vector3f(-1.5f + 1.1f * i, 0.4f * i - 1.f, 2.4f), 0.5f + 0.2f * i});
   Scene unlit = open_top_room();
   unlit.lights.clear();
   const PinholeIntrinsics k = PinholeIntrinsics::primesense(150, 113);
@@ -211,7 +212,8 @@ TEST(Renderer, RowShadingIsBitIdenticalToThePerPixelShading) {
       const RenderedView geometry = renderer.render(pose, k, depth_only);
       EXPECT_EQ(geometry.depth.data, rows.depth.data);
       EXPECT_EQ(geometry.normal_cam.data, rows.normal_cam.data);
-      EXPECT_EQ(std::count(geometry.rgb.data.begin(), geometry.rgb.data.end(), 0), std::ptrdiff_t(geometry.rgb.data.size()));
+      EXPECT_EQ(std::count(geometry.rgb.data.begin(), geometry.rgb.data.end(), 0),
+                std::ptrdiff_t(geometry.rgb.data.size()));
       // Not vacuous: hits with different colours, and misses.
       const std::set<std::uint8_t> reds(rows.rgb.data.begin(), rows.rgb.data.end());
       EXPECT_GT(reds.size(), 20u);

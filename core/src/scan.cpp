@@ -114,7 +114,6 @@ bool is_valid_sensor_name(const std::string& name) {
   });
 }
 
-
 // ---- rig.json field readers: each throws Error naming the origin and the dotted field. ----
 
 const json& require_field(const json& object, const std::string& key, const std::string& origin,

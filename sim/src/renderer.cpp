@@ -65,7 +65,8 @@ struct Renderer::Impl {
     // Eigen expression below, in its order, so the colour is the same.
     auto texel = [&](int x, int y) {
       const std::uint8_t* p = &texture.rgb[(std::size_t(y) * texture.width + x) * 3];
-      const __m128i bytes = _mm_cvtsi32_si128(int(std::uint32_t(p[0]) | std::uint32_t(p[1]) << 8 | std::uint32_t(p[2]) << 16));
+      const __m128i bytes =
+          _mm_cvtsi32_si128(int(std::uint32_t(p[0]) | std::uint32_t(p[1]) << 8 | std::uint32_t(p[2]) << 16));
       const __m128i zero = _mm_setzero_si128();
       return _mm_cvtepi32_ps(_mm_unpacklo_epi16(_mm_unpacklo_epi8(bytes, zero), zero));
     };
@@ -164,7 +165,8 @@ struct Renderer::Impl {
 
   // The surface colour before lighting: vertex colour, material albedo and texture (mip level by
   // `pixel_footprint_m`, the width of the surface patch one pixel sees, in metres).
-  __attribute__((always_inline)) Eigen::Vector3f albedo_at(unsigned triangle, float bu, float bv, float pixel_footprint_m) const {
+  __attribute__((always_inline)) Eigen::Vector3f albedo_at(unsigned triangle, float bu, float bv,
+                                                           float pixel_footprint_m) const {
     const TriangleMesh& mesh = scene.mesh;
     Eigen::Vector3f albedo(0.8f, 0.8f, 0.8f);
     const bool vertex_coloured = !mesh.vertex_colours.empty();
@@ -188,7 +190,8 @@ struct Renderer::Impl {
   }
 
   // One pixel's colour: the reference for the row-wise shading of render_rows, which computes the
-  // same float operations in the same order for four pixels at a time (shade_row).
+  // same float operations in the same order several pixels at a time (row_geometry, row_diffuse,
+  // row_colour), and of the panorama renderer.
   Eigen::Vector3f shade(unsigned triangle, float bu, float bv, const Eigen::Vector3f& point,
                         const Eigen::Vector3f& ray_dir, float pixel_footprint_m) const {
     const Eigen::Vector3f albedo = albedo_at(triangle, bu, bv, pixel_footprint_m);
@@ -397,13 +400,16 @@ class PacketRow {
 // One row between the intersection and the shading passes, structure of arrays padded to whole
 // packets, so that the shading passes run four pixels per SSE operation.
 struct RowScratch {
-  explicit RowScratch(int padded_width)
-      : t(padded_width), u(padded_width), v(padded_width), dir_x(padded_width), dir_y(padded_width),
-        dir_z(padded_width), triangle(padded_width), hit(padded_width), normal_x(padded_width),
-        normal_y(padded_width), normal_z(padded_width), point_x(padded_width), point_y(padded_width),
-        point_z(padded_width), footprint(padded_width), incidence(padded_width), depth(padded_width),
-        albedo_r(padded_width), albedo_g(padded_width), albedo_b(padded_width), diffuse(padded_width),
-        rgb(3 * std::size_t(padded_width)) {}
+  explicit RowScratch(int padded_width) {
+    const std::size_t n = std::size_t(padded_width);
+    for (std::vector<float>* plane :
+         {&t, &u, &v, &dir_x, &dir_y, &dir_z, &normal_x, &normal_y, &normal_z, &point_x, &point_y, &point_z, &footprint,
+          &incidence, &depth, &albedo_r, &albedo_g, &albedo_b, &diffuse})
+      plane->resize(n);
+    triangle.resize(n);
+    hit.resize(n);
+    rgb.resize(3 * n);
+  }
   std::vector<float> t, u, v, dir_x, dir_y, dir_z;
   std::vector<unsigned> triangle;  // RTC_INVALID_GEOMETRY_ID: no hit
   std::vector<std::int32_t> hit;   // all ones for a hit, 0 for none: an SSE mask
@@ -491,9 +497,11 @@ void row_geometry(RowScratch& row, int padded_width, const Eigen::Vector3f& orig
 // row_diffuse with eight pixels per AVX operation, for CPUs that have AVX (checked at run time): the
 // same per-lane operations (no FMA), so the same values; the divisions and square roots, whose
 // throughput bounds this loop, take half the instructions.
-__attribute__((target("avx"))) void row_diffuse_avx(RowScratch& row, int padded_width, const std::vector<float>& light_x,
-                                                     const std::vector<float>& light_y, const std::vector<float>& light_z,
-                                                     const std::vector<float>& light_intensity, std::size_t lights) {
+__attribute__((target("avx"))) void row_diffuse_avx(RowScratch& row, int padded_width,
+                                                    const std::vector<float>& light_x,
+                                                    const std::vector<float>& light_y,
+                                                    const std::vector<float>& light_z,
+                                                    const std::vector<float>& light_intensity, std::size_t lights) {
   const __m256 light_count = _mm256_set1_ps(float(lights));
   for (int x = 0; x < padded_width; x += 8) {
     const __m256 px = _mm256_loadu_ps(&row.point_x[x]), py = _mm256_loadu_ps(&row.point_y[x]),
@@ -512,8 +520,8 @@ __attribute__((target("avx"))) void row_diffuse_avx(RowScratch& row, int padded_
           _mm256_set1_ps(1e-8f));
       const __m256 numerator =
           _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(light_intensity[l]), facing), _mm256_set1_ps(2.f));
-      const __m256 denominator =
-          _mm256_mul_ps(_mm256_sqrt_ps(d2), _mm256_add_ps(_mm256_set1_ps(1.f), _mm256_mul_ps(_mm256_set1_ps(0.25f), d2)));
+      const __m256 denominator = _mm256_mul_ps(
+          _mm256_sqrt_ps(d2), _mm256_add_ps(_mm256_set1_ps(1.f), _mm256_mul_ps(_mm256_set1_ps(0.25f), d2)));
       const __m256 value = _mm256_div_ps(numerator, denominator);
       diffuse = _mm256_add_ps(diffuse, _mm256_and_ps(value, _mm256_cmp_ps(facing, _mm256_setzero_ps(), _CMP_GT_OQ)));
     }
@@ -524,8 +532,9 @@ __attribute__((target("avx"))) void row_diffuse_avx(RowScratch& row, int padded_
 
 // Lambert from the point lights, four pixels per SSE operation: per lane the float operations of
 // Renderer::Impl::shade's light loop, lights summed in the same order.
-void row_diffuse(RowScratch& row, int padded_width, const std::vector<float>& light_x, const std::vector<float>& light_y,
-                 const std::vector<float>& light_z, const std::vector<float>& light_intensity, std::size_t lights) {
+void row_diffuse(RowScratch& row, int padded_width, const std::vector<float>& light_x,
+                 const std::vector<float>& light_y, const std::vector<float>& light_z,
+                 const std::vector<float>& light_intensity, std::size_t lights) {
   const float light_count = float(lights);
 #if PANOSCAN_RENDER_AVX
   if (padded_width % 8 == 0 && cpu_has_avx()) {
@@ -578,8 +587,8 @@ void row_colour(RowScratch& row, int padded_width, float ambient) {
   const std::size_t plane = std::size_t(padded_width);
 #if defined(__SSE2__)
   for (int x = 0; x < padded_width; x += 4) {
-    const __m128 light = _mm_add_ps(_mm_set1_ps(ambient),
-                                    _mm_mul_ps(_mm_set1_ps(1.f - ambient), _mm_loadu_ps(&row.diffuse[x])));
+    const __m128 light =
+        _mm_add_ps(_mm_set1_ps(ambient), _mm_mul_ps(_mm_set1_ps(1.f - ambient), _mm_loadu_ps(&row.diffuse[x])));
     const __m128i hit = _mm_loadu_si128(reinterpret_cast<const __m128i*>(&row.hit[x]));
     const float* albedo[3] = {&row.albedo_r[x], &row.albedo_g[x], &row.albedo_b[x]};
     for (int c = 0; c < 3; ++c) {
@@ -750,8 +759,8 @@ RenderedView Renderer::render_per_pixel(const Rigid3d& world_from_cam, const Pin
           for (int c = 0; c < 3; ++c) out.normal_cam.at(x, y, c) = normal_cam[c];
         }
         const float footprint = t * ray_length * inv_fx / std::sqrt(std::max(cos_incidence, 0.05f));
-        const Eigen::Vector3f colour =
-            impl_->shade(triangle, packet.hit.u[lane], packet.hit.v[lane], origin + t * direction, direction, footprint);
+        const Eigen::Vector3f colour = impl_->shade(triangle, packet.hit.u[lane], packet.hit.v[lane],
+                                                    origin + t * direction, direction, footprint);
         for (int c = 0; c < 3; ++c)
           out.rgb.at(x, y, c) = static_cast<std::uint8_t>(std::clamp(colour[c] * 255.f + 0.5f, 0.f, 255.f));
       }
