@@ -1,4 +1,5 @@
 #include <cmath>
+#include <cstring>
 
 #include <gtest/gtest.h>
 
@@ -176,4 +177,26 @@ TEST(Allocator, GlibcAcceptsTheSettings) {
 #else
   GTEST_SKIP() << "not glibc";
 #endif
+}
+
+TEST(Allocator, DefaultInitAllocatorLeavesSizedElementsToTheirWriter) {
+  // construct() without a value default-initialises: a double's bytes stay as they were (a
+  // value-initialising allocator writes zeros here).
+  alignas(double) unsigned char storage[sizeof(double)];
+  std::memset(storage, 0xAB, sizeof storage);
+  DefaultInitAllocator<double> allocator;
+  allocator.construct(reinterpret_cast<double*>(storage));
+  for (const unsigned char byte : storage) EXPECT_EQ(byte, 0xAB);
+  // Given a value, and for types with a constructor, elements are constructed as std::vector does.
+  UninitialisedVector<double> filled;
+  filled.resize(5, 2.5);
+  filled.push_back(-1.0);
+  EXPECT_EQ(filled, (UninitialisedVector<double>{2.5, 2.5, 2.5, 2.5, 2.5, -1.0}));
+  filled.assign(3, 0.0);
+  EXPECT_EQ(filled, (UninitialisedVector<double>{0.0, 0.0, 0.0}));
+  struct WithInitialiser {
+    int value = 42;
+  };
+  const UninitialisedVector<WithInitialiser> constructed(4);
+  for (const WithInitialiser& element : constructed) EXPECT_EQ(element.value, 42);
 }

@@ -16,6 +16,7 @@
 #include <tbb/parallel_for.h>
 
 #include "depth_terms.h"
+#include "panoscan/core/allocator.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
 #include "panoscan/recon/panorama.h"
@@ -24,6 +25,10 @@ namespace panoscan {
 namespace {
 
 constexpr std::size_t kChunk = 4096;
+
+// The solver's per-unknown and per-measurement arrays. Each is written in full by a parallel loop
+// before it is read, so sizing it does not zero-fill it (core/allocator.h).
+using Buffer = UninitialisedVector<double>;
 
 // Deterministic parallel sum of f(i) over [0, n): fixed chunks, summed in order.
 template <typename F>
@@ -66,14 +71,14 @@ struct DepthProblem {
   const PanoramaMeasurements* m = nullptr;
   // The measurements' radial depths in CSR order (m->offsets index it): the data term reads 4
   // bytes per measurement instead of 12 (at H = 1024, 69 MB instead of 207 MB per evaluation).
-  std::vector<float> radial;
+  UninitialisedVector<float> radial;
   DepthFusionMethod method = DepthFusionMethod::kTsa;
   double lambda = 0.0;
   double data_eps = 0.002, tv_eps = 1e-4, tsa_eps = 1e-7;
   std::vector<std::size_t> pixel;    // pixel index of each unknown
   std::vector<Eigen::Vector3d> ray;  // unit direction of each unknown's pixel
-  std::vector<double> sin_theta;
-  std::vector<int> left, right, up, down;  // neighbouring unknowns (azimuth periodic), -1 = none
+  Buffer sin_theta;
+  UninitialisedVector<int> left, right, up, down;  // neighbouring unknowns (azimuth periodic), -1 = none
 
   struct Parts {
     double smoothed = 0.0, data = 0.0, smoothness = 0.0;
@@ -83,18 +88,18 @@ struct DepthProblem {
   // TSA use only the anchor and its left and upper neighbours; the right/down roles are allocated,
   // written and gathered for TP alone (for TV and TSA they were zeros, 64 MB at H = 1024).
   // (The data term's gradient goes straight into the gradient vector, the gather adds the rest.)
-  mutable std::vector<double> g_anchor, g_left, g_right, g_up, g_down;
-  mutable std::vector<double> h_anchor, h_left, h_right, h_up, h_down;
+  mutable Buffer g_anchor, g_left, g_right, g_up, g_down;
+  mutable Buffer h_anchor, h_left, h_right, h_up, h_down;
   bool uses_right_down() const { return method == DepthFusionMethod::kTp; }
   // Diagonal curvature estimate at the last evaluate(x, grad): data term's Hessian diagonal plus
   // lambda times the smoothness term's (majorised) diagonal; the L-BFGS preconditioner.
-  mutable std::vector<double> data_curvature;
+  mutable Buffer data_curvature;
 
   std::size_t size() const { return pixel.size(); }
 
   // The smoothness term S_p of Eq. 5 anchored at unknown i (lambda not applied): TV, TSA (Eq. 6)
   // or TP (Eq. 7) on the stencil of its neighbouring unknowns (depth_terms.h).
-  depth_terms::StencilTerm smoothness_term(const std::vector<double>& x, std::size_t i) const {
+  depth_terms::StencilTerm smoothness_term(const Buffer& x, std::size_t i) const {
     using namespace depth_terms;
     // TV and TSA read the anchor, left and upper slots only: the others are left absent.
     const bool all = uses_right_down();
@@ -121,7 +126,7 @@ struct DepthProblem {
     return {};
   }
 
-  Parts evaluate(const std::vector<double>& x, std::vector<double>* grad) const {
+  Parts evaluate(const Buffer& x, Buffer* grad) const {
     const std::size_t n = size();
     const std::size_t chunks = (n + kChunk - 1) / kChunk;
     std::vector<Parts> partial(chunks);
@@ -217,6 +222,21 @@ EnergyRecord record(int iteration, const DepthProblem::Parts& parts, double lamb
   return r;
 }
 
+// One L-BFGS curvature pair s = x_{k+1} - x_k, y = g_{k+1} - g_k.
+struct LbfgsPair {
+  Buffer s, y;
+  double rho = 0.0, sy = 0.0;  // rho = 1 / sy
+};
+
+// The L-BFGS vectors, kept from one continuation stage to the next (each stage starts with an
+// empty memory, but its buffers are those of the stage before): at H = 1024 a stage uses up to
+// sixteen 16 MB vectors, and allocating them per stage meant mapping, faulting in and filling
+// about 250 MB per stage.
+struct LbfgsWorkspace {
+  Buffer g, g_new, x_new, direction;
+  std::vector<LbfgsPair> spare;  // pairs' buffers for reuse
+};
+
 // Limited-memory BFGS (two-loop recursion) with Armijo backtracking; the smoothed energy never
 // increases. Returns the energy log (iteration 0 = the start).
 // One stage at the problem's current data_eps, at most max_iterations; appends to log (the start
@@ -226,20 +246,18 @@ EnergyRecord record(int iteration, const DepthProblem::Parts& parts, double lamb
 // of two; at H = 1024 the vectors are 16 MB each and the passes were memory-bound). Every element
 // sees the same operations in the same order and every sum the same chunks in the same order as
 // with separate passes (chunked_sum), so the iterates are the same bits as before the fusion.
-void minimise_lbfgs(const DepthProblem& problem, std::vector<double>& x, const FusionOptions& options,
-                    int max_iterations, std::vector<EnergyRecord>& log) {
-  std::vector<double> g, g_new, x_new, direction(x.size());
+void minimise_lbfgs(const DepthProblem& problem, Buffer& x, const FusionOptions& options, int max_iterations,
+                    std::vector<EnergyRecord>& log, LbfgsWorkspace& workspace) {
+  Buffer &g = workspace.g, &g_new = workspace.g_new, &x_new = workspace.x_new, &direction = workspace.direction;
+  std::vector<LbfgsPair>& spare = workspace.spare;
+  using Pair = LbfgsPair;
+  direction.resize(x.size());
   DepthProblem::Parts parts = problem.evaluate(x, &g);
   const int first = log.empty() ? 0 : log.back().iteration;
   if (log.empty()) log.push_back(record(0, parts, problem.lambda, problem.data_eps));
-  struct Pair {
-    std::vector<double> s, y;
-    double rho = 0.0, sy = 0.0;  // rho = 1 / sy
-  };
   std::deque<Pair> memory;
   const std::size_t n = x.size();
   int small_steps = 0;
-  std::vector<Pair> spare;
   std::vector<double> alpha, beta;
   // Initial inverse Hessian H0 = gamma * diag(h0): h0 the inverse of the data term's diagonal
   // curvature (plus a floor for pixels whose measurements all lie far from the current depth),
@@ -249,7 +267,7 @@ void minimise_lbfgs(const DepthProblem& problem, std::vector<double>& x, const F
   const auto h0 = [&](std::size_t i) { return 1.0 / (problem.data_curvature[i] + 1.0); };
   for (int iteration = first + 1; iteration <= first + max_iterations; ++iteration) {
     // Two-loop recursion: direction = -H g, computed in place in `direction` (the q of the recursion).
-    std::vector<double>& q = direction;
+    Buffer& q = direction;
     const std::size_t m = memory.size();
     alpha.assign(m, 0.0);
     beta.assign(m, 0.0);
@@ -271,17 +289,17 @@ void minimise_lbfgs(const DepthProblem& problem, std::vector<double>& x, const F
                      });
       for (std::size_t k = m - 1; k > 0; --k) {
         const double a = alpha[k];
-        const std::vector<double>& y = memory[k].y;
-        const std::vector<double>& s_next = memory[k - 1].s;
+        const Buffer& y = memory[k].y;
+        const Buffer& s_next = memory[k - 1].s;
         alpha[k - 1] = memory[k - 1].rho * chunked_sum(n, [&](std::size_t i) {
                          q[i] -= a * y[i];
                          return s_next[i] * q[i];
                        });
       }
       // The last update goes with y.H0.y of the newest pair (for gamma).
-      const std::vector<double>& y_last = memory.back().y;
+      const Buffer& y_last = memory.back().y;
       const double a0 = alpha[0];
-      const std::vector<double>& y0 = memory[0].y;
+      const Buffer& y0 = memory[0].y;
       const double yhy = chunked_sum(n, [&](std::size_t i) {
         q[i] -= a0 * y0[i];
         return y_last[i] * h0(i) * y_last[i];
@@ -295,15 +313,15 @@ void minimise_lbfgs(const DepthProblem& problem, std::vector<double>& x, const F
                 });
       for (std::size_t k = 1; k < m; ++k) {
         const double c = alpha[k - 1] - beta[k - 1];
-        const std::vector<double>& s_prev = memory[k - 1].s;
-        const std::vector<double>& y = memory[k].y;
+        const Buffer& s_prev = memory[k - 1].s;
+        const Buffer& y = memory[k].y;
         beta[k] = memory[k].rho * chunked_sum(n, [&](std::size_t i) {
                     q[i] += c * s_prev[i];
                     return y[i] * q[i];
                   });
       }
       const double c = alpha[m - 1] - beta[m - 1];
-      const std::vector<double>& s_last = memory[m - 1].s;
+      const Buffer& s_last = memory[m - 1].s;
       slope = chunked_sum(n, [&](std::size_t i) {
         q[i] += c * s_last[i];
         q[i] = -q[i];
@@ -372,6 +390,7 @@ void minimise_lbfgs(const DepthProblem& problem, std::vector<double>& x, const F
     small_steps = decrease <= options.relative_tolerance * std::abs(parts.smoothed) ? small_steps + 1 : 0;
     if (small_steps >= 3) break;
   }
+  spare.insert(spare.end(), std::make_move_iterator(memory.begin()), std::make_move_iterator(memory.end()));
 }
 
 }  // namespace
@@ -483,12 +502,13 @@ Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
   problem.right.resize(n);
   problem.up.resize(n);
   problem.down.resize(n);
+  // Written in full by every evaluation before they are read (the gather reads them afterwards).
   for (auto* g : {&problem.data_curvature, &problem.g_anchor, &problem.g_left, &problem.g_up, &problem.h_anchor,
                   &problem.h_left, &problem.h_up})
-    g->assign(n, 0.0);
+    g->resize(n);
   if (problem.uses_right_down())
-    for (auto* g : {&problem.g_right, &problem.g_down, &problem.h_right, &problem.h_down}) g->assign(n, 0.0);
-  std::vector<double> x(n, 0.0);
+    for (auto* g : {&problem.g_right, &problem.g_down, &problem.h_right, &problem.h_down}) g->resize(n);
+  Buffer x(n);  // every element set by the loop below
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const tbb::blocked_range<std::size_t>& range) {
     std::vector<float> radial;  // one buffer per range, not one allocation per pixel
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
@@ -541,14 +561,15 @@ Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
       if (eps <= options.data_epsilon_final_m) break;
     }
     int budget = options.iterations;
+    LbfgsWorkspace workspace;
     for (std::size_t k = 0; k < stages.size(); ++k) {
       problem.data_eps = stages[k];
       const int share = budget / int(stages.size() - k);
       const std::size_t before = out.energy.size();
-      minimise_lbfgs(problem, x, options, share, out.energy);
+      minimise_lbfgs(problem, x, options, share, out.energy, workspace);
       budget -= int(out.energy.size() - std::max<std::size_t>(before, 1));
     }
-    std::vector<float>().swap(problem.radial);
+    UninitialisedVector<float>().swap(problem.radial);
     const EnergyRecord& first = out.energy.front();
     const EnergyRecord& last = out.energy.back();
     std::ostringstream msg;

@@ -2,6 +2,12 @@
 // benchmarks call it first thing in main).
 #pragma once
 
+#include <memory>
+#include <new>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
 namespace panoscan {
 
 // Keeps freed blocks of up to 32 MB in the process for reuse instead of returning them to the
@@ -14,5 +20,37 @@ namespace panoscan {
 // are still mapped and unmapped as before. Returns false if glibc refused a setting (other C
 // libraries: a no-op returning false).
 bool keep_freed_memory_for_reuse();
+
+// An allocator whose value-initialisation (vector::resize(n), vector(n)) default-initialises
+// instead: a resized vector of doubles is not zero-filled. For the large buffers that a parallel
+// loop writes in full right after sizing them (the panorama solver's 16 MB vectors at H = 1024):
+// the zero fill was a serial pass over memory, and it touched the fresh pages on one thread, so
+// their page faults were serial too; now the writing loop touches them on every core.
+// Elements are still constructed as usual where a value is given (resize(n, value), assign, ...).
+template <typename T, typename Base = std::allocator<T>>
+class DefaultInitAllocator : public Base {
+ public:
+  template <typename U>
+  struct rebind {
+    using other = DefaultInitAllocator<U, typename std::allocator_traits<Base>::template rebind_alloc<U>>;
+  };
+  using Base::Base;
+  DefaultInitAllocator() = default;
+  template <typename U, typename B>
+  DefaultInitAllocator(const DefaultInitAllocator<U, B>& other) noexcept : Base(static_cast<const B&>(other)) {}
+
+  template <typename U>
+  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <typename U, typename... Args>
+  void construct(U* p, Args&&... args) {
+    std::allocator_traits<Base>::construct(static_cast<Base&>(*this), p, std::forward<Args>(args)...);
+  }
+};
+
+// A std::vector whose resize(n) leaves trivially constructible elements uninitialised (see above).
+template <typename T>
+using UninitialisedVector = std::vector<T, DefaultInitAllocator<T>>;
 
 }  // namespace panoscan
