@@ -1,3 +1,6 @@
+#include <algorithm>
+#include <vector>
+#include <cfloat>
 #include <cmath>
 #include <cstring>
 
@@ -127,6 +130,61 @@ TEST(Camera, EquirectangularRoundTrip) {
   // Row 0 looks up, the middle row looks at the horizon.
   EXPECT_GT(pano.direction(10, 0).z(), 0.99);
   EXPECT_NEAR(pano.direction(10, 127.5).z(), 0.0, 1e-12);
+}
+
+// pixel() against the angles in long double (libm's atan2l, 64-bit mantissa): within 4 units in
+// the last place of the pixel coordinate at the largest panorama (W = 32768), over random
+// directions of every scale and octant and the special ones (axes, poles, the seam, the tan(pi/8)
+// switch of the reduction, signed zeros).
+TEST(Camera, EquirectangularPixelIsAccurateToAFewUlps) {
+  const Equirectangular pano{16384};
+  RandomStream random(11, 0, 0, RandomPurpose::kGeneric);
+  std::vector<Eigen::Vector3d> directions;
+  for (int i = 0; i < 20000; ++i) {
+    Eigen::Vector3d d(random.uniform(-1, 1), random.uniform(-1, 1), random.uniform(-1, 1));
+    if (i % 4 == 1) d.y() = d.x() * std::tan(M_PI / 8) * (1 + 1e-9 * random.uniform(-1, 1));  // the switch
+    if (i % 4 == 2) d.head<2>() *= 1e-6;                                                      // near a pole
+    directions.push_back(d * std::pow(10.0, random.uniform(-3, 3)));
+  }
+  for (const double x : {-1.0, -0.0, 0.0, 1.0})
+    for (const double y : {-1.0, -0.0, 0.0, 1.0})
+      for (const double z : {-1.0, 0.0, 1.0})
+        if (x != 0 || y != 0 || z != 0) directions.emplace_back(x, y, z);
+  directions.emplace_back(1.0, -1e-300, 0.2);  // just below the seam: u = W - 1/2
+  const long double pi = 3.141592653589793238462643383279502884L;
+  for (const Eigen::Vector3d& d : directions) {
+    const long double x = d.x(), y = d.y(), z = d.z();
+    long double phi = std::atan2(y, x);
+    if (phi < 0) phi += 2 * pi;
+    const long double theta = std::atan2(std::sqrt(x * x + y * y), z);
+    const long double u = phi / (2 * pi) * pano.width() - 0.5L, v = theta / pi * pano.height - 0.5L;
+    const Eigen::Vector2d got = pano.pixel(d);
+    // At a pole the azimuth is arbitrary (libm: atan2(0, -0) = pi; pixel(): 0).
+    if (d.x() != 0 || d.y() != 0) {
+      EXPECT_NEAR(got.x(), double(u), 4 * DBL_EPSILON * double(u + 1)) << d.transpose();
+    }
+    EXPECT_NEAR(got.y(), double(v), 4 * DBL_EPSILON * double(v + 1)) << d.transpose();
+  }
+}
+
+// pixels() is pixel() bit for bit, whichever SIMD path takes which element (n = 4k + 3 gives the
+// AVX path, one SSE2 pair and one scalar element where the CPU has AVX).
+TEST(Camera, EquirectangularPixelsBatchIsBitIdenticalToPixel) {
+  const Equirectangular pano{1024};
+  RandomStream random(12, 0, 0, RandomPurpose::kGeneric);
+  const std::size_t n = 4003;
+  std::vector<double> x(n), y(n), z(n), u(n), v(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    x[i] = random.uniform(-5, 5), y[i] = random.uniform(-5, 5), z[i] = random.uniform(-5, 5);
+    if (i % 7 == 0) x[i] = 0.0;
+    if (i % 11 == 0) y[i] = -0.0;
+  }
+  pano.pixels(n, x.data(), y.data(), z.data(), u.data(), v.data());
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d expected = pano.pixel(Eigen::Vector3d(x[i], y[i], z[i]));
+    ASSERT_EQ(u[i], expected.x()) << i;
+    ASSERT_EQ(v[i], expected.y()) << i;
+  }
 }
 
 // Pairs where a share `inliers` follows `truth` within 1 mm and the rest are scattered in the room.

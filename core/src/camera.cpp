@@ -2,8 +2,21 @@
 
 #include <algorithm>
 #include <cmath>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+#include "equirectangular_lanes.h"
 
 namespace panoscan {
+
+#if defined(PANOSCAN_EQUIRECTANGULAR_AVX)
+namespace detail {
+// equirectangular_avx.cpp, compiled with -mavx.
+void equirectangular_pixels_avx(std::size_t n, const double* x, const double* y, const double* z, double width,
+                                double height, double* u, double* v);
+}  // namespace detail
+#endif
 
 PinholeIntrinsics PinholeIntrinsics::primesense(int width, int height) {
   PinholeIntrinsics k;
@@ -26,12 +39,39 @@ Eigen::Vector3d Equirectangular::direction(double u, double v) const {
   return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
 }
 
+// The angles come from equirectangular_lanes.h's atan2 (within 1.5 ulp), not libm's atan2 and acos:
+// the batched pixels() computes them four at a time, and the scalar pixel() must give the same
+// bits. (libm's atan2 and acos were most of the panorama warping's time.) Polar angle
+// atan2(rho, z) is also better conditioned near the poles than acos(z / r).
 Eigen::Vector2d Equirectangular::pixel(const Eigen::Vector3d& direction) const {
-  const Eigen::Vector3d d = direction.normalized();
-  double phi = std::atan2(d.y(), d.x());
-  if (phi < 0) phi += 2.0 * M_PI;
-  const double theta = std::acos(std::clamp(d.z(), -1.0, 1.0));
-  return {phi / (2.0 * M_PI) * width() - 0.5, theta / M_PI * height - 0.5};
+  const double x = direction.x(), y = direction.y(), z = direction.z();
+  double u = 0.0, v = 0.0;
+  lanes::pixel_of(x, y, z, std::sqrt(x * x + y * y), double(width()), double(height), u, v);
+  return {u, v};
+}
+
+void Equirectangular::pixels(std::size_t n, const double* x, const double* y, const double* z, double* u,
+                             double* v) const {
+  const double w = double(width()), h = double(height);
+  std::size_t done = 0;
+#if defined(PANOSCAN_EQUIRECTANGULAR_AVX)
+  static const bool has_avx = __builtin_cpu_supports("avx");
+  if (has_avx) {
+    done = n / 4 * 4;
+    detail::equirectangular_pixels_avx(done, x, y, z, w, h, u, v);
+  }
+#endif
+#if defined(__SSE2__)
+  const std::size_t pairs_end = done + (n - done) / 2 * 2;
+  lanes::pixels_of<__m128d>(pairs_end - done, x + done, y + done, z + done, w, h, u + done, v + done,
+                            [](__m128d a) { return _mm_sqrt_pd(a); });
+  done = pairs_end;
+#endif
+  for (std::size_t i = done; i < n; ++i) {
+    const Eigen::Vector2d p = pixel(Eigen::Vector3d(x[i], y[i], z[i]));
+    u[i] = p.x();
+    v[i] = p.y();
+  }
 }
 
 }  // namespace panoscan

@@ -84,6 +84,7 @@ class RayTable {
 struct WarpScratch {
   std::vector<WarpVertex> vertices[2];  // two rows of the frame
   std::vector<char> valid[2];
+  std::vector<double> x, y, z, u, v;  // a row's points in the panorama frame and their pixels (SoA)
   std::vector<FrameSample> samples;
 };
 
@@ -192,9 +193,15 @@ std::size_t warp_frame(const RgbdFrame& frame, const PinholeIntrinsics& intrinsi
   }
   std::vector<FrameSample>& samples = scratch.samples;
   samples.clear();
+  for (auto* row : {&scratch.x, &scratch.y, &scratch.z, &scratch.u, &scratch.v}) row->resize(std::size_t(w));
+  double *const row_x = scratch.x.data(), *const row_y = scratch.y.data(), *const row_z = scratch.z.data();
+  // A row in three passes: the points, their panorama pixels for the whole row at once
+  // (Equirectangular::pixels, SIMD), then the vertices.
   auto build_row = [&](int y, WarpVertex* vertices, char* valid) {
     for (int x = 0; x < w; ++x) {
       valid[x] = 0;
+      // Pixels without a vertex get a harmless direction for the batched pass.
+      row_x[x] = 1.0, row_y[x] = 0.0, row_z[x] = 0.0;
       const float z = frame.depth.at(x, y);
       if (!(z > 0.f) || !std::isfinite(z) || z < options.min_depth_m) continue;
       if (options.max_depth_m > 0 && z > options.max_depth_m) continue;
@@ -202,16 +209,21 @@ std::size_t warp_frame(const RgbdFrame& frame, const PinholeIntrinsics& intrinsi
       vtx.point = pano_from_cam * intrinsics.backproject(x, y, z);
       vtx.radial = vtx.point.norm();
       if (!(vtx.radial > 1e-6)) continue;
-      const Eigen::Vector2d pixel = pano.pixel(vtx.point);
-      vtx.u = pixel.x();
-      vtx.v = pixel.y();
+      row_x[x] = vtx.point.x(), row_y[x] = vtx.point.y(), row_z[x] = vtx.point.z();
+      valid[x] = 1;
+    }
+    pano.pixels(std::size_t(w), row_x, row_y, row_z, scratch.u.data(), scratch.v.data());
+    for (int x = 0; x < w; ++x) {
+      if (!valid[x]) continue;
+      WarpVertex& vtx = vertices[x];
+      vtx.u = scratch.u[std::size_t(x)];
+      vtx.v = scratch.v[std::size_t(x)];
       vtx.rgb = &frame.rgb.data[(std::size_t(y) * w + x) * 3];
       vtx.near_pole = std::abs(vtx.point.z()) > 0.9 * vtx.radial;
       vtx.u_ceil = int(std::ceil(vtx.u));
       vtx.u_floor = int(std::floor(vtx.u));
       vtx.v_ceil = int(std::ceil(vtx.v));
       vtx.v_floor = int(std::floor(vtx.v));
-      valid[x] = 1;
     }
   };
   const double jump = options.max_edge_depth_jump_m;

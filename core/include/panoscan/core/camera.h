@@ -7,6 +7,8 @@
 // polar angle theta = pi*(v + 0.5)/H from +z (row 0 looks up).
 #pragma once
 
+#include <cstddef>
+
 #include <Eigen/Core>
 
 namespace panoscan {
@@ -43,6 +45,9 @@ struct Equirectangular {
   Eigen::Vector3d direction(double u, double v) const;
   // Continuous pixel coordinates of a direction (need not be normalised, must be non-zero).
   Eigen::Vector2d pixel(const Eigen::Vector3d& direction) const;
+  // pixel() of n directions given as coordinate arrays, into u[i], v[i]: the same bits as pixel()
+  // one by one, several directions per SIMD instruction where the CPU has them.
+  void pixels(std::size_t n, const double* x, const double* y, const double* z, double* u, double* v) const;
 };
 
 }  // namespace panoscan

@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "panoscan/core/allocator.h"
 #include "panoscan/core/camera.h"
 #include "panoscan/core/geometry.h"
 #include "panoscan/core/image.h"
@@ -51,20 +52,22 @@ struct WarpOptions {
   void check(const std::string& origin = "<panorama options>") const;
 };
 
-// One raw measurement of a panorama pixel (12 bytes).
+// One raw measurement of a panorama pixel (12 bytes). A plain aggregate without member
+// initialisers, so that sizing the measurement sets (17 million at H = 1024) does not fill them
+// before warping writes every field: PanoramaMeasurement{} is all zeros, a bare declaration is not.
 struct PanoramaMeasurement {
-  float radial_m = 0.f;  // distance from the panorama centre along the pixel's ray
-  std::uint8_t rgb[3] = {0, 0, 0};
-  std::uint8_t sensor = 0;
-  std::uint32_t frame = 0;  // index in the scan's listing of that sensor
+  float radial_m;  // distance from the panorama centre along the pixel's ray
+  std::uint8_t rgb[3];
+  std::uint8_t sensor;
+  std::uint32_t frame;  // index in the scan's listing of that sensor
 };
 
 struct PanoramaMeasurements {
   Equirectangular pano;
   Rigid3d world_from_pano = Rigid3d::Identity();  // = T_u (RigTrajectory::world_from_axis)
   // CSR: the measurements of pixel p = v * W + u are samples[offsets[p] .. offsets[p + 1]).
-  std::vector<std::uint64_t> offsets;  // size H * W + 1
-  std::vector<PanoramaMeasurement> samples;
+  std::vector<std::uint64_t> offsets;                // size H * W + 1
+  UninitialisedVector<PanoramaMeasurement> samples;  // resize() leaves them unwritten (core/allocator.h)
   std::size_t frames_used = 0;
   std::size_t triangles_skipped_at_poles = 0;
   std::size_t frame_pixels = 0;        // pixels of the frames used
