@@ -256,6 +256,79 @@ TEST(PanoramaTerms, DataTermGradientAndCurvatureMatchCentralDifferencesAndItsExa
   }
 }
 
+bool bits_equal(const depth_terms::DataTerm& a, const depth_terms::DataTerm& b) {
+  return a.smoothed == b.smoothed && a.exact == b.exact && a.gradient == b.gradient && a.curvature == b.curvature;
+}
+
+// The solver evaluates the data term two pixels per SSE2 instruction (data_term_pair) or four per
+// AVX instruction (data_term_quad), each pixel's measurements in order in its lane, the shorter
+// sets masked: every pixel's value must be data_term's bit for bit, for sets of any length (0 to
+// 13, unequal within a group) and depths on, near and far from the measurements.
+TEST(PanoramaTerms, DataTermPairAndQuadAreBitIdenticalToDataTerm) {
+  RandomStream rng(21, 0, 0, RandomPurpose::kGeneric);
+  const double eps = 4e-4;
+  for (int trial = 0; trial < 300; ++trial) {
+    std::vector<float> sets[4];
+    double depth[4];
+    for (int j = 0; j < 4; ++j) {
+      const int count = int(rng.uniform(0, 14));
+      for (int k = 0; k < count; ++k) sets[j].push_back(float(2.0 + 0.01 * rng.normal()));
+      depth[j] = trial % 3 == 0 && count > 0 ? double(sets[j][0]) : 2.0 + 0.02 * rng.normal();
+    }
+    depth_terms::DataTerm reference[4];
+    for (int j = 0; j < 4; ++j)
+      reference[j] = depth_terms::data_term(depth[j], sets[j].data(), sets[j].data() + sets[j].size(), eps);
+    depth_terms::DataTerm pair[2];
+    depth_terms::data_term_pair(depth[0], sets[0].data(), sets[0].data() + sets[0].size(), depth[1], sets[1].data(),
+                                sets[1].data() + sets[1].size(), eps, pair[0], pair[1]);
+    EXPECT_TRUE(bits_equal(pair[0], reference[0])) << trial;
+    EXPECT_TRUE(bits_equal(pair[1], reference[1])) << trial;
+#if defined(PANOSCAN_DATA_TERM_AVX)
+    if (!__builtin_cpu_supports("avx")) continue;
+    const float* begins[4];
+    const float* ends[4];
+    for (int j = 0; j < 4; ++j) begins[j] = sets[j].data(), ends[j] = sets[j].data() + sets[j].size();
+    depth_terms::DataTerm quad[4];
+    depth_terms::data_term_quad(depth, begins, ends, eps, quad);
+    for (int j = 0; j < 4; ++j) EXPECT_TRUE(bits_equal(quad[j], reference[j])) << trial << " lane " << j;
+#endif
+  }
+}
+
+// The solver's four-pixel AVX TSA kernel against tsa_core, bit for bit, including degenerate
+// stencils (a neighbour at the anchor's point: the lanes the solver fills with the anchor itself).
+TEST(PanoramaTerms, TsaQuadIsBitIdenticalToTsaCore) {
+#if defined(PANOSCAN_DEPTH_TERMS_AVX)
+  if (!__builtin_cpu_supports("avx")) GTEST_SKIP() << "no AVX";
+  RandomStream rng(22, 0, 0, RandomPurpose::kGeneric);
+  const double eps = 1e-7;
+  for (int trial = 0; trial < 500; ++trial) {
+    double depth[3][4];
+    Eigen::Vector3d rays[3][4];
+    const double* ray_data[3][4];
+    for (int j = 0; j < 4; ++j) {
+      for (int k = 0; k < 3; ++k) {
+        rays[k][j] = Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()).normalized();
+        depth[k][j] = 1.0 + 3.0 * rng.uniform(0, 1);
+      }
+      if ((trial + j) % 5 == 0) rays[1][j] = rays[0][j], depth[1][j] = depth[0][j];  // left = anchor
+      for (int k = 0; k < 3; ++k) ray_data[k][j] = rays[k][j].data();
+    }
+    double out[8][4];
+    depth_terms::detail::tsa_quad_avx(depth[0], ray_data[0], depth[1], ray_data[1], depth[2], ray_data[2], eps, out);
+    for (int j = 0; j < 4; ++j) {
+      const depth_terms::TsaCore t =
+          depth_terms::tsa_core(depth[0][j], rays[0][j], depth[1][j], rays[1][j], depth[2][j], rays[2][j], eps);
+      const double expected[8] = {t.smoothed,    t.exact,        t.gradient[0],  t.gradient[1],
+                                  t.gradient[2], t.curvature[0], t.curvature[1], t.curvature[2]};
+      for (int k = 0; k < 8; ++k) EXPECT_EQ(out[k][j], expected[k]) << trial << " lane " << j << " value " << k;
+    }
+  }
+#else
+  GTEST_SKIP() << "the library has no AVX kernels on this platform";
+#endif
+}
+
 TEST(PanoramaWarp, CleanDepthMatchesGroundTruthPanorama) {
   const SimulatedScan& s = office_clean();
   const Panorama p = build(s, 256, DepthFusionMethod::kAverage);

@@ -126,6 +126,79 @@ struct DepthProblem {
     return {};
   }
 
+  // The data terms of `count` unknowns from `first` on (count <= group_size) into out: four per
+  // AVX data_term_quad where the CPU has AVX, otherwise two per SSE2 data_term_pair. Every value is
+  // data_term's bit for bit either way.
+  const std::size_t group_size = data_term_quads() ? 4 : 2;
+  static bool data_term_quads() {
+#if defined(PANOSCAN_DATA_TERM_AVX)
+    static const bool has_avx = __builtin_cpu_supports("avx");
+    return has_avx;
+#else
+    return false;
+#endif
+  }
+  void data_terms(const Buffer& x, std::size_t first, std::size_t count, depth_terms::DataTerm* out) const {
+    const auto begin = [&](std::size_t i) { return radial.data() + m->offsets[pixel[i]]; };
+    const auto end = [&](std::size_t i) { return radial.data() + m->offsets[pixel[i] + 1]; };
+#if defined(PANOSCAN_DATA_TERM_AVX)
+    if (count == 4 && group_size == 4) {
+      const double depth[4] = {x[first], x[first + 1], x[first + 2], x[first + 3]};
+      const float* const begins[4] = {begin(first), begin(first + 1), begin(first + 2), begin(first + 3)};
+      const float* const ends[4] = {end(first), end(first + 1), end(first + 2), end(first + 3)};
+      depth_terms::data_term_quad(depth, begins, ends, data_eps, out);
+      return;
+    }
+#endif
+    for (std::size_t j = 0; j < count; j += 2) {
+      const std::size_t i = first + j;
+      if (j + 1 < count)
+        depth_terms::data_term_pair(x[i], begin(i), end(i), x[i + 1], begin(i + 1), end(i + 1), data_eps, out[j],
+                                    out[j + 1]);
+      else
+        out[j] = depth_terms::data_term(x[i], begin(i), end(i), data_eps);
+    }
+  }
+
+  // The TSA terms (tsa_core) of `count` unknowns from `first` on (count <= group_size) into out,
+  // for those with both a left and an upper neighbour (the others' entries are not written): four
+  // per AVX instruction where the CPU has AVX (depth_terms_avx.cpp), bit for bit tsa_core's values.
+  void tsa_terms(const Buffer& x, std::size_t first, std::size_t count, depth_terms::TsaCore* out) const {
+#if defined(PANOSCAN_DEPTH_TERMS_AVX)
+    if (count == 4 && group_size == 4) {
+      double depth[3][4], lane_out[8][4];
+      const double* rays[3][4];
+      for (std::size_t j = 0; j < 4; ++j) {
+        const std::size_t i = first + j;
+        // A lane without both neighbours uses the anchor in their place (finite, discarded).
+        const bool complete = left[i] >= 0 && up[i] >= 0;
+        const std::size_t at[3] = {i, complete ? std::size_t(left[i]) : i, complete ? std::size_t(up[i]) : i};
+        for (int k = 0; k < 3; ++k) {
+          depth[k][j] = x[at[k]];
+          rays[k][j] = ray[at[k]].data();
+        }
+      }
+      depth_terms::detail::tsa_quad_avx(depth[0], rays[0], depth[1], rays[1], depth[2], rays[2], tsa_eps, lane_out);
+      for (std::size_t j = 0; j < 4; ++j) {
+        out[j].smoothed = lane_out[0][j];
+        out[j].exact = lane_out[1][j];
+        for (int k = 0; k < 3; ++k) {
+          out[j].gradient[k] = lane_out[2 + k][j];
+          out[j].curvature[k] = lane_out[5 + k][j];
+        }
+      }
+      return;
+    }
+#endif
+    for (std::size_t j = 0; j < count; ++j) {
+      const std::size_t i = first + j;
+      const int l = left[i], u = up[i];
+      if (l >= 0 && u >= 0)
+        out[j] = depth_terms::tsa_core(x[i], ray[i], x[std::size_t(l)], ray[std::size_t(l)], x[std::size_t(u)],
+                                       ray[std::size_t(u)], tsa_eps);
+    }
+  }
+
   Parts evaluate(const Buffer& x, Buffer* grad) const {
     const std::size_t n = size();
     const std::size_t chunks = (n + kChunk - 1) / kChunk;
@@ -135,23 +208,13 @@ struct DepthProblem {
     tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
       Parts sum;
       const std::size_t end = std::min(n, (c + 1) * kChunk);
-      depth_terms::DataTerm pair[2];
+      depth_terms::DataTerm group[4];
+      depth_terms::TsaCore tsa_group[4];
       for (std::size_t i = c * kChunk; i < end; ++i) {
-        // Data term of Eq. 5 over all measurements of the pixel, two pixels at a time.
-        const std::size_t i0 = c * kChunk + ((i - c * kChunk) & ~std::size_t(1));
-        if (i == i0) {
-          const std::size_t p = pixel[i];
-          if (i + 1 < end) {
-            const std::size_t q = pixel[i + 1];
-            depth_terms::data_term_pair(x[i], radial.data() + m->offsets[p], radial.data() + m->offsets[p + 1],
-                                        x[i + 1], radial.data() + m->offsets[q], radial.data() + m->offsets[q + 1],
-                                        data_eps, pair[0], pair[1]);
-          } else {
-            pair[0] = depth_terms::data_term(x[i], radial.data() + m->offsets[p], radial.data() + m->offsets[p + 1],
-                                             data_eps);
-          }
-        }
-        const depth_terms::DataTerm& data = pair[i - i0];
+        // Data term of Eq. 5 over all measurements of the pixel, a group of pixels at a time.
+        const std::size_t in_group = (i - c * kChunk) % group_size;
+        if (in_group == 0) data_terms(x, i, std::min(group_size, end - i), group);
+        const depth_terms::DataTerm& data = group[in_group];
         sum.smoothed += data.smoothed;
         sum.data += data.exact;
         if (grad) {
@@ -162,10 +225,9 @@ struct DepthProblem {
         if (method == DepthFusionMethod::kTsa) {
           // TSA (Eq. 6) straight from the arrays, no stencil assembled: the same arithmetic as
           // tsa_term (zero where a neighbour is missing; adding a zero term changes no sum).
-          const int l = left[i], u = up[i];
-          if (l >= 0 && u >= 0) {
-            const depth_terms::TsaCore t = depth_terms::tsa_core(x[i], ray[i], x[std::size_t(l)], ray[std::size_t(l)],
-                                                                 x[std::size_t(u)], ray[std::size_t(u)], tsa_eps);
+          if (in_group == 0) tsa_terms(x, i, std::min(group_size, end - i), tsa_group);
+          if (left[i] >= 0 && up[i] >= 0) {
+            const depth_terms::TsaCore& t = tsa_group[in_group];
             g_anchor[i] = t.gradient[0], h_anchor[i] = t.curvature[0];
             g_left[i] = t.gradient[1], h_left[i] = t.curvature[1];
             g_up[i] = t.gradient[2], h_up[i] = t.curvature[2];
