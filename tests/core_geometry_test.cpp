@@ -3,6 +3,7 @@
 #include <cfloat>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 
 #include <gtest/gtest.h>
 
@@ -257,4 +258,16 @@ TEST(Allocator, DefaultInitAllocatorLeavesSizedElementsToTheirWriter) {
   };
   const UninitialisedVector<WithInitialiser> constructed(4);
   for (const WithInitialiser& element : constructed) EXPECT_EQ(element.value, 42);
+}
+
+TEST(Allocator, LargeBlocksAreAdvisedHugePages) {
+  std::vector<char> small(std::size_t(1) << 20);
+  EXPECT_FALSE(advise_huge_pages(small.data(), small.size()));  // below 8 MB: left alone
+  EXPECT_FALSE(advise_huge_pages(nullptr, std::size_t(64) << 20));
+#if defined(__linux__)
+  if (!std::filesystem::exists("/sys/kernel/mm/transparent_hugepage")) GTEST_SKIP() << "kernel without THP";
+  UninitialisedVector<double> large;
+  large.resize(std::size_t(4) << 20);  // 32 MB
+  EXPECT_TRUE(advise_huge_pages(large.data(), large.size() * sizeof(double)));
+#endif
 }

@@ -2,8 +2,13 @@
 
 #include <cstdlib>  // defines __GLIBC__ on glibc (through <features.h>)
 
+#include <cstdint>
+
 #if defined(__GLIBC__)
 #include <malloc.h>
+#endif
+#if defined(__linux__)
+#include <sys/mman.h>
 #endif
 
 namespace panoscan {
@@ -19,6 +24,22 @@ bool keep_freed_memory_for_reuse() {
   const bool trim_ok = mallopt(M_TRIM_THRESHOLD, kTrimThreshold) == 1;
   return mmap_ok && trim_ok;
 #else
+  return false;
+#endif
+}
+
+bool advise_huge_pages(void* data, std::size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  constexpr std::uintptr_t kHugePage = std::uintptr_t(2) << 20;
+  if (data == nullptr || bytes < (std::size_t(8) << 20)) return false;
+  const std::uintptr_t begin = (reinterpret_cast<std::uintptr_t>(data) + kHugePage - 1) & ~(kHugePage - 1);
+  const std::uintptr_t end = (reinterpret_cast<std::uintptr_t>(data) + bytes) & ~(kHugePage - 1);
+  if (end <= begin) return false;
+  // Advice only: where the kernel has no huge pages (or THP is off) the pages stay 4 KB.
+  return madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE) == 0;
+#else
+  (void)data;
+  (void)bytes;
   return false;
 #endif
 }
