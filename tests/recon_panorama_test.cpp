@@ -305,14 +305,15 @@ TEST(PanoramaTerms, TsaQuadIsBitIdenticalToTsaCore) {
   for (int trial = 0; trial < 500; ++trial) {
     double depth[3][4];
     Eigen::Vector3d rays[3][4];
-    const double* ray_data[3][4];
+    double ray_data[3][3][4];  // slot, component, lane
     for (int j = 0; j < 4; ++j) {
       for (int k = 0; k < 3; ++k) {
         rays[k][j] = Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()).normalized();
         depth[k][j] = 1.0 + 3.0 * rng.uniform(0, 1);
       }
       if ((trial + j) % 5 == 0) rays[1][j] = rays[0][j], depth[1][j] = depth[0][j];  // left = anchor
-      for (int k = 0; k < 3; ++k) ray_data[k][j] = rays[k][j].data();
+      for (int k = 0; k < 3; ++k)
+        for (int c = 0; c < 3; ++c) ray_data[k][c][j] = rays[k][j][c];
     }
     double out[8][4];
     depth_terms::detail::tsa_quad_avx(depth[0], ray_data[0], depth[1], ray_data[1], depth[2], ray_data[2], eps, out);

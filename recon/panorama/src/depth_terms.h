@@ -243,11 +243,11 @@ inline TsaCore tsa_core(double depth_p, const Eigen::Vector3d& ray_p, double dep
 
 #if defined(PANOSCAN_DEPTH_TERMS_AVX)
 namespace detail {
-// depth_terms_avx.cpp: tsa_core of four anchors (lane j: depth_p[j], ray_p[j], ...), out[k][j] the
-// k-th of depth_lanes.h's eight values for lane j. Compiled with -mavx: call only where the CPU has it.
-void tsa_quad_avx(const double depth_p[4], const double* const ray_p[4], const double depth_l[4],
-                  const double* const ray_l[4], const double depth_u[4], const double* const ray_u[4], double eps,
-                  double out[8][4]);
+// depth_terms_avx.cpp: tsa_core of four anchors (lane j: depth_p[j], ray component c ray_p[c][j],
+// ...), out[k][j] the k-th of depth_lanes.h's eight values for lane j. Compiled with -mavx: call
+// only where the CPU has it.
+void tsa_quad_avx(const double depth_p[4], const double ray_p[3][4], const double depth_l[4], const double ray_l[3][4],
+                  const double depth_u[4], const double ray_u[3][4], double eps, double out[8][4]);
 }  // namespace detail
 #endif
 

@@ -13,6 +13,7 @@
 
 #include "panoscan/core/error.h"
 #include "panoscan/recon/panorama.h"
+#include "ray_table.h"
 
 namespace panoscan {
 namespace {
@@ -39,46 +40,6 @@ struct FrameSample {
   std::uint8_t rgb[3] = {0, 0, 0};
 };
 static_assert(sizeof(FrameSample) == 12, "FrameSample is meant to be 12 bytes");
-
-// The unit rays of the panorama's pixel centres, Equirectangular::direction(u, v) =
-// (sin theta_v cos phi_u, sin theta_v sin phi_u, cos theta_v), from one table per column and one per
-// row instead of a sine and a cosine per rasterised pixel. The factors are taken from direction()
-// itself, at phi = 0 (cos 1, sin 0) and on the row with sin theta = 1, so that every product is the
-// one direction() computes, bit for bit; where those two rows are not exact (they are for any H
-// checked), every ray falls back to direction().
-class RayTable {
- public:
-  explicit RayTable(const Equirectangular& pano) : pano_(pano) {
-    const int width = pano.width(), height = pano.height;
-    const double equator_v = 0.5 * (height - 1);  // theta = pi/2
-    exact_ = pano.direction(-0.5, equator_v).x() == 1.0;
-    cos_phi_.resize(std::size_t(width));
-    sin_phi_.resize(std::size_t(width));
-    for (int u = 0; u < width && exact_; ++u) {
-      const Eigen::Vector3d d = pano.direction(u, equator_v);
-      cos_phi_[std::size_t(u)] = d.x();
-      sin_phi_[std::size_t(u)] = d.y();
-    }
-    sin_theta_.resize(std::size_t(height));
-    cos_theta_.resize(std::size_t(height));
-    for (int v = 0; v < height && exact_; ++v) {
-      const Eigen::Vector3d d = pano.direction(-0.5, v);  // phi = 0
-      exact_ = exact_ && d.y() == 0.0;
-      sin_theta_[std::size_t(v)] = d.x();
-      cos_theta_[std::size_t(v)] = d.z();
-    }
-  }
-  Eigen::Vector3d operator()(int u, int v) const {
-    if (!exact_) return pano_.direction(u, v);
-    const double st = sin_theta_[std::size_t(v)];
-    return {st * cos_phi_[std::size_t(u)], st * sin_phi_[std::size_t(u)], cos_theta_[std::size_t(v)]};
-  }
-
- private:
-  Equirectangular pano_;
-  bool exact_ = false;
-  std::vector<double> cos_phi_, sin_phi_, sin_theta_, cos_theta_;
-};
 
 // Per-thread buffers of warp_frame, reused from frame to frame (no allocation per frame).
 struct WarpScratch {
@@ -122,8 +83,11 @@ bool rasterise_triangle(const Equirectangular& pano, const RayTable& rays, const
   if (!near_pole && empty_box) return true;
   const WarpVertex* verts[3] = {&a, &b, &c};
   const Eigen::Vector3d normal = (b.point - a.point).cross(c.point - a.point);
-  const double normal_norm = normal.norm();
-  if (normal_norm <= 0.0) return true;
+  // The test on the squared norm (sqrt(x) <= 0 exactly when x <= 0, NaN neither) keeps the square
+  // root's latency off this branch; the root is only needed in the pixel loop.
+  const double normal_norm2 = normal.squaredNorm();
+  if (normal_norm2 <= 0.0) return true;
+  const double normal_norm = std::sqrt(normal_norm2);
   // Pole: the panorama ray straight up or down passes through the triangle (its projection would
   // wrap all the way round). Only possible when a vertex is near a pole.
   for (const WarpVertex* vtx : verts) {
