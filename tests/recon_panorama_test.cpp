@@ -283,7 +283,7 @@ TEST(PanoramaTerms, DataTermPairAndQuadAreBitIdenticalToDataTerm) {
                                 sets[1].data() + sets[1].size(), eps, pair[0], pair[1]);
     EXPECT_TRUE(bits_equal(pair[0], reference[0])) << trial;
     EXPECT_TRUE(bits_equal(pair[1], reference[1])) << trial;
-#if defined(PANOSCAN_DATA_TERM_AVX)
+#if defined(PANOSCAN_DEPTH_TERMS_AVX)
     if (!__builtin_cpu_supports("avx")) continue;
     const float* begins[4];
     const float* ends[4];

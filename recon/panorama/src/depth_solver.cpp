@@ -137,7 +137,7 @@ struct DepthProblem {
   // data_term's bit for bit either way.
   const std::size_t group_size = data_term_quads() ? 4 : 2;
   static bool data_term_quads() {
-#if defined(PANOSCAN_DATA_TERM_AVX)
+#if defined(PANOSCAN_DEPTH_TERMS_AVX)
     static const bool has_avx = __builtin_cpu_supports("avx");
     return has_avx;
 #else
@@ -147,7 +147,7 @@ struct DepthProblem {
   void data_terms(const Buffer& x, std::size_t first, std::size_t count, depth_terms::DataTerm* out) const {
     const auto begin = [&](std::size_t i) { return radial.data() + m->offsets[pixel[i]]; };
     const auto end = [&](std::size_t i) { return radial.data() + m->offsets[pixel[i] + 1]; };
-#if defined(PANOSCAN_DATA_TERM_AVX)
+#if defined(PANOSCAN_DEPTH_TERMS_AVX)
     if (count == 4 && group_size == 4) {
       const double depth[4] = {x[first], x[first + 1], x[first + 2], x[first + 3]};
       const float* const begins[4] = {begin(first), begin(first + 1), begin(first + 2), begin(first + 3)};

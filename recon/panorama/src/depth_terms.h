@@ -20,10 +20,6 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#include <immintrin.h>
-#define PANOSCAN_DATA_TERM_AVX 1
-#endif
 
 #include "depth_lanes.h"
 #include "panoscan/recon/panorama.h"
@@ -118,44 +114,21 @@ inline void data_term_pair(double depth0, const float* begin0, const float* end0
   t1 = data_term(depth1, begin1 + k, end1, eps, t1);
 }
 
-#if defined(PANOSCAN_DATA_TERM_AVX)
+#if defined(PANOSCAN_DEPTH_TERMS_AVX)
+namespace detail {
+// depth_terms_avx.cpp: data_term of four pixels, lane j pixel j (its measurements
+// [begin[j], end[j])); sums[k][j] is DataTerm's k-th field (smoothed, exact, gradient, curvature)
+// of lane j. Compiled with -mavx: call only where the CPU has it.
+void data_term_quad_avx(const double depth[4], const float* const begin[4], const float* const end[4], double eps,
+                        double sums[4][4]);
+}  // namespace detail
+
 // data_term of four pixels at once, one per lane of each AVX instruction (the solver's loop where
-// the CPU has AVX; a double division or square root costs the same time on four lanes as on two
-// here, and they are most of the loop). Each lane takes its pixel's measurements in order and
-// runs to the longest set; a lane past its own set adds +0.0, which leaves its sums unchanged
-// (x + 0.0 == x for every x but -0.0, and a sum that starts at +0.0 never becomes -0.0 in
-// round-to-nearest). So every pixel's value is data_term's bit for bit. Not FMA: the products are
-// rounded as data_term rounds them.
-__attribute__((target("avx"))) inline void data_term_quad(const double depth[4], const float* const begin[4],
-                                                          const float* const end[4], double eps, DataTerm out[4]) {
-  std::ptrdiff_t count[4], longest = 0;
-  for (int j = 0; j < 4; ++j) longest = std::max(longest, count[j] = end[j] - begin[j]);
-  const double eps2 = eps * eps;
-  const __m256d eps_v = _mm256_set1_pd(eps), eps2_v = _mm256_set1_pd(eps2), sign = _mm256_set1_pd(-0.0);
-  const __m256d depth_v = _mm256_loadu_pd(depth);
-  __m256d smoothed = _mm256_setzero_pd(), exact = _mm256_setzero_pd(), gradient = _mm256_setzero_pd(),
-          curvature = _mm256_setzero_pd();
-  const __m256d count_v = _mm256_set_pd(double(count[3]), double(count[2]), double(count[1]), double(count[0]));
-  // The lanes are assembled in registers: four scalar stores read back as one vector would stall
-  // (no store-to-load forwarding), which made this loop slower than the SSE2 pairs.
-  const auto at = [&](int j, std::ptrdiff_t k) { return k < count[j] ? begin[j][k] : 0.f; };
-  for (std::ptrdiff_t k = 0; k < longest; ++k) {
-    // A lane past its set reads 0 (finite) and is masked off.
-    const __m256d mask = _mm256_cmp_pd(_mm256_set1_pd(double(k)), count_v, _CMP_LT_OQ);
-    const __m256d z = _mm256_cvtps_pd(_mm_set_ps(at(3, k), at(2, k), at(1, k), at(0, k)));
-    const __m256d r = _mm256_sub_pd(depth_v, z);
-    const __m256d s = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(r, r), eps2_v));
-    smoothed = _mm256_add_pd(smoothed, _mm256_and_pd(mask, _mm256_sub_pd(s, eps_v)));
-    exact = _mm256_add_pd(exact, _mm256_and_pd(mask, _mm256_andnot_pd(sign, r)));  // |r|
-    gradient = _mm256_add_pd(gradient, _mm256_and_pd(mask, _mm256_div_pd(r, s)));
-    curvature =
-        _mm256_add_pd(curvature, _mm256_and_pd(mask, _mm256_div_pd(eps2_v, _mm256_mul_pd(_mm256_mul_pd(s, s), s))));
-  }
+// the CPU has AVX): every pixel's value is data_term's bit for bit (depth_terms_avx.cpp says why).
+inline void data_term_quad(const double depth[4], const float* const begin[4], const float* const end[4], double eps,
+                           DataTerm out[4]) {
   double sums[4][4];
-  _mm256_storeu_pd(sums[0], smoothed);
-  _mm256_storeu_pd(sums[1], exact);
-  _mm256_storeu_pd(sums[2], gradient);
-  _mm256_storeu_pd(sums[3], curvature);
+  detail::data_term_quad_avx(depth, begin, end, eps, sums);
   for (int j = 0; j < 4; ++j) out[j] = DataTerm{sums[0][j], sums[1][j], sums[2][j], sums[3][j]};
 }
 #endif
