@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <type_traits>
 
 #include <embree3/rtcore.h>
@@ -28,9 +29,21 @@ struct Renderer::Impl {
   // Mip pyramids of the textures (level 0 = the texture), and per triangle the texture's
   // resolution on the surface (texels per metre, from the uv-to-world area ratio) so that each
   // pixel samples the level whose texels match its footprint: no aliasing of far surfaces and
-  // far fewer cache misses.
-  std::vector<std::vector<Texture>> mip_levels;
+  // far fewer cache misses. Every level of every texture lives in `texels` (RGB, rows of width * 3
+  // bytes) at level_offset; texture t's levels are texture_first_level[t] + 0 .. count - 1. Four
+  // bytes of padding let a 4-byte load at the last texel stay inside (the AVX2 pass's gathers).
+  std::vector<std::uint8_t> texels;
+  std::vector<std::size_t> level_offset;
+  std::vector<std::int32_t> level_width, level_height;
+  std::vector<std::int32_t> texture_first_level, texture_level_count;
   std::vector<float> triangle_texels_per_metre;
+  // For render_rows' AVX2 albedo pass, which gathers eight pixels' surface data at a time: per
+  // triangle its material's texture (-1: none) and albedo (r, g, b, unused), and the levels' offsets
+  // as 32-bit gather indices. Empty where albedo_at has to do it: vertex colours, or texels or
+  // triangles beyond 32-bit indices.
+  std::vector<std::int32_t> triangle_texture;
+  std::vector<float> triangle_albedo;
+  std::vector<std::int32_t> level_offset32;
   // The lights as structure of arrays padded to whole batches, so that the per-pixel light loop
   // computes a batch of lights in SIMD lanes instead of one sqrt and one division after the other
   // (the loop was half of the shading time). Padding lights have intensity 0 and are never summed.
@@ -44,9 +57,13 @@ struct Renderer::Impl {
     if (device) rtcReleaseDevice(device);
   }
 
-  Eigen::Vector3f sample_texture(const Texture& texture, float u, float v) const {
+  Eigen::Vector3f sample_texture(int level, float u, float v) const {
     // Bilinear with wrap-around ("repeat"); row 0 is v = 1 (top). Wrapping the coordinate
     // first keeps integer division out of the per-pixel path.
+    struct {
+      int width, height;
+      const std::uint8_t* rgb;
+    } texture{level_width[level], level_height[level], texels.data() + level_offset[level]};
     const float wrapped_u = u - std::floor(u);
     const float wrapped_v = (1.0f - v) - std::floor(1.0f - v);
     const float sx = wrapped_u * texture.width - 0.5f;
@@ -93,8 +110,8 @@ struct Renderer::Impl {
   // Simple, view-independent shading: ambient + Lambert from the scene's point lights, no
   // shadows (consistent colour across views, which is what a registered RGB camera sees of a
   // matte static scene).
-  const Texture& mip_level(int texture, unsigned triangle, float pixel_footprint_m) const {
-    const auto& levels = mip_levels[texture];
+  // The index of the mip level (into level_offset, ...) for a pixel of `triangle`.
+  int mip_level(int texture, unsigned triangle, float pixel_footprint_m) const {
     const float texels_per_pixel = pixel_footprint_m * triangle_texels_per_metre[triangle];
     // floor(log2) from the exponent bits: what std::ilogb returns for the values >= 2 taken here
     // (all normal; +inf gives 128, clamped below as ilogb's INT_MAX is), without its libm call per pixel.
@@ -104,7 +121,24 @@ struct Renderer::Impl {
       std::memcpy(&bits, &texels_per_pixel, sizeof bits);
       level = int((bits >> 23) & 0xffu) - 127;
     }
-    return levels[std::min<int>(level, int(levels.size()) - 1)];
+    return texture_first_level[texture] + std::min<int>(level, texture_level_count[texture] - 1);
+  }
+
+  void build_albedo_lanes() {
+    const TriangleMesh& mesh = scene.mesh;
+    const std::size_t triangles = mesh.triangles.size();
+    if (!mesh.vertex_colours.empty() || texels.size() >= std::size_t(INT32_MAX) ||
+        triangles >= std::size_t(INT32_MAX) / 6)
+      return;
+    triangle_texture.assign(triangles, -1);
+    triangle_albedo.assign(4 * triangles, 0.8f);
+    if (!mesh.triangle_material.empty())
+      for (std::size_t t = 0; t < triangles; ++t) {
+        const Material& material = scene.materials[mesh.triangle_material[t]];
+        for (int c = 0; c < 3; ++c) triangle_albedo[4 * t + c] = material.albedo[c];
+        if (material.texture >= 0 && !mesh.corner_uvs.empty()) triangle_texture[t] = material.texture;
+      }
+    level_offset32.assign(level_offset.begin(), level_offset.end());
   }
 
   void build_light_batches() {
@@ -123,28 +157,34 @@ struct Renderer::Impl {
 
   void build_mip_levels() {
     for (const Texture& texture : scene.textures) {
-      std::vector<Texture> levels{texture};
-      while (levels.back().width > 1 && levels.back().height > 1) {
-        const Texture& fine = levels.back();
-        Texture coarse;
-        coarse.name = fine.name;
-        coarse.width = std::max(1, fine.width / 2);
-        coarse.height = std::max(1, fine.height / 2);
-        coarse.rgb.resize(std::size_t(coarse.width) * coarse.height * 3);
-        for (int y = 0; y < coarse.height; ++y)
-          for (int x = 0; x < coarse.width; ++x)
+      texture_first_level.push_back(std::int32_t(level_width.size()));
+      std::vector<std::uint8_t> fine = texture.rgb;
+      int fine_width = texture.width, fine_height = texture.height;
+      for (;;) {
+        level_offset.push_back(texels.size());
+        level_width.push_back(fine_width);
+        level_height.push_back(fine_height);
+        texels.insert(texels.end(), fine.begin(), fine.end());
+        if (fine_width <= 1 || fine_height <= 1) break;
+        const int width = std::max(1, fine_width / 2), height = std::max(1, fine_height / 2);
+        std::vector<std::uint8_t> coarse(std::size_t(width) * height * 3);
+        for (int y = 0; y < height; ++y)
+          for (int x = 0; x < width; ++x)
             for (int c = 0; c < 3; ++c) {
               // 2x2 box filter (the last odd row/column of the finer level is dropped).
               int sum = 0;
               for (int dy = 0; dy < 2; ++dy)
                 for (int dx = 0; dx < 2; ++dx)
-                  sum += fine.rgb[((std::size_t(2 * y + dy)) * fine.width + (2 * x + dx)) * 3 + c];
-              coarse.rgb[(std::size_t(y) * coarse.width + x) * 3 + c] = static_cast<std::uint8_t>((sum + 2) / 4);
+                  sum += fine[((std::size_t(2 * y + dy)) * fine_width + (2 * x + dx)) * 3 + c];
+              coarse[(std::size_t(y) * width + x) * 3 + c] = static_cast<std::uint8_t>((sum + 2) / 4);
             }
-        levels.push_back(std::move(coarse));
+        fine = std::move(coarse);
+        fine_width = width;
+        fine_height = height;
       }
-      mip_levels.push_back(std::move(levels));
+      texture_level_count.push_back(std::int32_t(level_width.size()) - texture_first_level.back());
     }
+    texels.resize(texels.size() + 4, 0);
     const TriangleMesh& mesh = scene.mesh;
     triangle_texels_per_metre.assign(mesh.triangles.size(), 0.f);
     if (mesh.corner_uvs.empty() || mesh.triangle_material.empty()) return;
@@ -272,6 +312,7 @@ Renderer::Renderer(const Scene& scene) : impl_(std::make_unique<Impl>(scene)) {
   rtcReleaseGeometry(geometry);
   rtcCommitScene(impl_->rtc_scene);
   impl_->build_mip_levels();
+  impl_->build_albedo_lanes();
   impl_->build_light_batches();
   const RTCError error = rtcGetDeviceError(impl_->device);
   if (error != RTC_ERROR_NONE) throw Error("Embree: scene build failed (error " + std::to_string(int(error)) + ")");
@@ -581,6 +622,119 @@ void row_diffuse(RowScratch& row, int padded_width, const std::vector<float>& li
 #endif
 }
 
+#if PANOSCAN_RENDER_AVX
+// What row_albedo_avx2 reads: Renderer::Impl's per-triangle and per-level tables.
+struct AlbedoLanes {
+  const std::int32_t* triangle_texture;  // -1: untextured
+  const float* triangle_albedo;          // 4 per triangle
+  const float* corner_uvs;               // 6 per triangle: u, v of each corner
+  const float* texels_per_metre;         // per triangle
+  const std::int32_t* texture_first_level;
+  const std::int32_t* texture_level_count;
+  const std::int32_t* level_offset;
+  const std::int32_t* level_width;
+  const std::int32_t* level_height;
+  const std::uint8_t* texels;  // padded: a 4-byte load at the last texel stays inside
+};
+
+bool cpu_has_avx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+}
+
+// Renderer::Impl::albedo_at for eight pixels per AVX2 operation (meshes without vertex colours):
+// the material's albedo, times the bilinear texel of the pixel's mip level where the material has a
+// texture; 0 where nothing was hit. The per-pixel path fetched each texel's three bytes and chose
+// its level and wrap with branches, and was half of the shading time. Per lane the same float
+// operations in the same order (no FMA; vroundps is floorf), so the colour is the same bit for bit.
+__attribute__((target("avx2"))) void row_albedo_avx2(RowScratch& row, int padded_width, const AlbedoLanes& in) {
+  const __m256 one = _mm256_set1_ps(1.f), half = _mm256_set1_ps(0.5f);
+  const __m256i one_i = _mm256_set1_epi32(1), three_i = _mm256_set1_epi32(3), byte = _mm256_set1_epi32(0xff);
+  const auto* texel_words = reinterpret_cast<const int*>(in.texels);
+  for (int x = 0; x < padded_width; x += 8) {
+    const __m256i hit = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(&row.hit[x]));
+    // Misses gather triangle 0's entries, which are then discarded.
+    const __m256i triangle =
+        _mm256_and_si256(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&row.triangle[x])), hit);
+    const __m256i albedo_index = _mm256_slli_epi32(triangle, 2);
+    __m256 albedo[3];
+    for (int c = 0; c < 3; ++c)
+      albedo[c] = _mm256_i32gather_ps(in.triangle_albedo, _mm256_add_epi32(albedo_index, _mm256_set1_epi32(c)), 4);
+    const __m256i texture = _mm256_i32gather_epi32(in.triangle_texture, triangle, 4);
+    const __m256i textured = _mm256_andnot_si256(_mm256_cmpgt_epi32(_mm256_setzero_si256(), texture), hit);
+    if (!_mm256_testz_si256(textured, textured)) {
+      // uv = (1 - bu - bv) uv0 + bu uv1 + bv uv2, summed left to right as Eigen does.
+      const __m256 bu = _mm256_loadu_ps(&row.u[x]), bv = _mm256_loadu_ps(&row.v[x]);
+      const __m256 w0 = _mm256_sub_ps(_mm256_sub_ps(one, bu), bv);
+      const __m256i uv_index = _mm256_mullo_epi32(triangle, _mm256_set1_epi32(6));
+      __m256 corner[6];
+      for (int k = 0; k < 6; ++k)
+        corner[k] = _mm256_i32gather_ps(in.corner_uvs, _mm256_add_epi32(uv_index, _mm256_set1_epi32(k)), 4);
+      const __m256 u = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(w0, corner[0]), _mm256_mul_ps(bu, corner[2])),
+                                     _mm256_mul_ps(bv, corner[4]));
+      const __m256 v = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(w0, corner[1]), _mm256_mul_ps(bu, corner[3])),
+                                     _mm256_mul_ps(bv, corner[5]));
+      // mip_level: floor(log2(texels per pixel)) from the exponent bits where it is >= 2, else 0,
+      // capped at the texture's coarsest level.
+      const __m256 texels_per_pixel =
+          _mm256_mul_ps(_mm256_loadu_ps(&row.footprint[x]), _mm256_i32gather_ps(in.texels_per_metre, triangle, 4));
+      const __m256i exponent = _mm256_sub_epi32(
+          _mm256_and_si256(_mm256_srli_epi32(_mm256_castps_si256(texels_per_pixel), 23), byte), _mm256_set1_epi32(127));
+      const __m256i finer_levels = _mm256_and_si256(
+          exponent, _mm256_castps_si256(_mm256_cmp_ps(texels_per_pixel, _mm256_set1_ps(2.f), _CMP_GE_OQ)));
+      const __m256i safe_texture = _mm256_and_si256(texture, textured);
+      const __m256i level = _mm256_add_epi32(
+          _mm256_i32gather_epi32(in.texture_first_level, safe_texture, 4),
+          _mm256_min_epi32(finer_levels,
+                           _mm256_sub_epi32(_mm256_i32gather_epi32(in.texture_level_count, safe_texture, 4), one_i)));
+      const __m256i width = _mm256_i32gather_epi32(in.level_width, level, 4);
+      const __m256i height = _mm256_i32gather_epi32(in.level_height, level, 4);
+      const __m256i offset = _mm256_i32gather_epi32(in.level_offset, level, 4);
+      // sample_texture: wrap, then the four texels around the sample point.
+      const __m256 wrapped_u = _mm256_sub_ps(u, _mm256_floor_ps(u));
+      const __m256 flipped_v = _mm256_sub_ps(one, v);
+      const __m256 wrapped_v = _mm256_sub_ps(flipped_v, _mm256_floor_ps(flipped_v));
+      const __m256 sx = _mm256_sub_ps(_mm256_mul_ps(wrapped_u, _mm256_cvtepi32_ps(width)), half);
+      const __m256 sy = _mm256_sub_ps(_mm256_mul_ps(wrapped_v, _mm256_cvtepi32_ps(height)), half);
+      __m256i x0 = _mm256_cvttps_epi32(_mm256_floor_ps(sx)), y0 = _mm256_cvttps_epi32(_mm256_floor_ps(sy));
+      const __m256 ax = _mm256_sub_ps(sx, _mm256_cvtepi32_ps(x0)), ay = _mm256_sub_ps(sy, _mm256_cvtepi32_ps(y0));
+      __m256i x1 = _mm256_add_epi32(x0, one_i), y1 = _mm256_add_epi32(y0, one_i);
+      const __m256i last_x = _mm256_sub_epi32(width, one_i), last_y = _mm256_sub_epi32(height, one_i);
+      x0 = _mm256_add_epi32(x0, _mm256_and_si256(_mm256_cmpgt_epi32(_mm256_setzero_si256(), x0), width));
+      y0 = _mm256_add_epi32(y0, _mm256_and_si256(_mm256_cmpgt_epi32(_mm256_setzero_si256(), y0), height));
+      x1 = _mm256_sub_epi32(x1, _mm256_and_si256(_mm256_cmpgt_epi32(x1, last_x), width));
+      y1 = _mm256_sub_epi32(y1, _mm256_and_si256(_mm256_cmpgt_epi32(y1, last_y), height));
+      x0 = _mm256_min_epi32(x0, last_x);
+      y0 = _mm256_min_epi32(y0, last_y);
+      const __m256i row0 = _mm256_mullo_epi32(y0, width), row1 = _mm256_mullo_epi32(y1, width);
+      // Four bytes from each texel's first: its R, G, B and a byte that is ignored. Order: (x0, y0),
+      // (x1, y0), (x0, y1), (x1, y1).
+      const __m256i texel_index[4] = {_mm256_add_epi32(row0, x0), _mm256_add_epi32(row0, x1),
+                                      _mm256_add_epi32(row1, x0), _mm256_add_epi32(row1, x1)};
+      __m256i texel[4];
+      for (int k = 0; k < 4; ++k)
+        texel[k] = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), texel_words,
+                                               _mm256_add_epi32(offset, _mm256_mullo_epi32(texel_index[k], three_i)),
+                                               textured, 1);
+      const __m256 wx0 = _mm256_sub_ps(one, ax), wy0 = _mm256_sub_ps(one, ay);
+      for (int c = 0; c < 3; ++c) {
+        __m256 channel[4];
+        for (int k = 0; k < 4; ++k)
+          channel[k] = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(texel[k], 8 * c), byte));
+        const __m256 top = _mm256_add_ps(_mm256_mul_ps(wx0, channel[0]), _mm256_mul_ps(ax, channel[1]));
+        const __m256 bottom = _mm256_add_ps(_mm256_mul_ps(wx0, channel[2]), _mm256_mul_ps(ax, channel[3]));
+        const __m256 blended = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(wy0, top), _mm256_mul_ps(ay, bottom)),
+                                             _mm256_set1_ps(1.0f / 255.0f));
+        albedo[c] = _mm256_blendv_ps(albedo[c], _mm256_mul_ps(albedo[c], blended), _mm256_castsi256_ps(textured));
+      }
+    }
+    _mm256_storeu_ps(&row.albedo_r[x], _mm256_and_ps(albedo[0], _mm256_castsi256_ps(hit)));
+    _mm256_storeu_ps(&row.albedo_g[x], _mm256_and_ps(albedo[1], _mm256_castsi256_ps(hit)));
+    _mm256_storeu_ps(&row.albedo_b[x], _mm256_and_ps(albedo[2], _mm256_castsi256_ps(hit)));
+  }
+}
+#endif
+
 // albedo * (ambient + (1 - ambient) * diffuse) to 8 bits, rounded and clamped as shade's callers do;
 // 0 where nothing was hit.
 void row_colour(RowScratch& row, int padded_width, float ambient) {
@@ -635,6 +789,20 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
   // One row at a time: all its packets first, then its shading passes, so that the BVH and the
   // textures each stay in cache for a whole pass, and the two can be timed apart.
   RowScratch row(padded_width);
+#if PANOSCAN_RENDER_AVX
+  std::optional<AlbedoLanes> albedo_lanes;
+  if (!impl.triangle_texture.empty() && cpu_has_avx2())
+    albedo_lanes = AlbedoLanes{impl.triangle_texture.data(),
+                               impl.triangle_albedo.data(),
+                               scene.mesh.corner_uvs.empty() ? nullptr : scene.mesh.corner_uvs.data()->data(),
+                               impl.triangle_texels_per_metre.data(),
+                               impl.texture_first_level.data(),
+                               impl.texture_level_count.data(),
+                               impl.level_offset32.data(),
+                               impl.level_width.data(),
+                               impl.level_height.data(),
+                               impl.texels.data()};
+#endif
   std::int64_t rays_ns = 0, shading_ns = 0;
   for (int y = row_begin; y < row_end; ++y) {
     const std::int64_t start = times ? now_ns() : 0;
@@ -690,12 +858,20 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
       }
       continue;  // rgb stays as allocate() made it: black
     }
-    for (int x = 0; x < padded_width; ++x) {
-      const Eigen::Vector3f albedo = row.hit[x] ? impl.albedo_at(row.triangle[x], row.u[x], row.v[x], row.footprint[x])
-                                                : Eigen::Vector3f::Zero().eval();
-      row.albedo_r[x] = albedo.x();
-      row.albedo_g[x] = albedo.y();
-      row.albedo_b[x] = albedo.z();
+#if PANOSCAN_RENDER_AVX
+    if (albedo_lanes) {
+      row_albedo_avx2(row, padded_width, *albedo_lanes);
+    } else
+#endif
+    {
+      for (int x = 0; x < padded_width; ++x) {
+        const Eigen::Vector3f albedo = row.hit[x]
+                                           ? impl.albedo_at(row.triangle[x], row.u[x], row.v[x], row.footprint[x])
+                                           : Eigen::Vector3f::Zero().eval();
+        row.albedo_r[x] = albedo.x();
+        row.albedo_g[x] = albedo.y();
+        row.albedo_b[x] = albedo.z();
+      }
     }
     if (!scene.lights.empty()) {
       row_diffuse(row, padded_width, impl.light_x, impl.light_y, impl.light_z, impl.light_intensity,
