@@ -1,6 +1,12 @@
 #include "panoscan/core/random.h"
 
+#include <algorithm>
 #include <cmath>
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define PANOSCAN_RANDOM_AVX512 1
+#endif
 
 namespace panoscan {
 
@@ -75,6 +81,131 @@ double RandomStream::normal_outside_core(std::uint64_t bits) {
     if (y < std::exp(-0.5 * x * x)) return sign * x;
     bits = next_u64();
   }
+}
+
+}  // namespace panoscan
+
+namespace panoscan {
+
+#if PANOSCAN_RANDOM_AVX512
+namespace {
+
+bool cpu_has_avx512dq() {
+  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq");
+  return has;
+}
+
+// Rows r of the 8 x 8 doubles in `rows` become columns.
+__attribute__((target("avx512f,avx512dq"))) inline void transpose8(__m512d rows[8]) {
+  __m512d pairs[8], quads[8];
+  for (int i = 0; i < 8; i += 2) {
+    pairs[i] = _mm512_unpacklo_pd(rows[i], rows[i + 1]);      // r_i0 r_j0 r_i2 r_j2 | ...
+    pairs[i + 1] = _mm512_unpackhi_pd(rows[i], rows[i + 1]);  // r_i1 r_j1 r_i3 r_j3 | ...
+  }
+  // 128-bit blocks: (0, 2) of a and (0, 2) of b, and (1, 3) of each.
+  for (int i = 0; i < 8; i += 4)
+    for (int k = 0; k < 2; ++k) {
+      quads[i + k] = _mm512_shuffle_f64x2(pairs[i + k], pairs[i + 2 + k], 0x88);
+      quads[i + 2 + k] = _mm512_shuffle_f64x2(pairs[i + k], pairs[i + 2 + k], 0xdd);
+    }
+  for (int k = 0; k < 4; ++k) {
+    rows[k] = _mm512_shuffle_f64x2(quads[k], quads[4 + k], 0x88);
+    rows[4 + k] = _mm512_shuffle_f64x2(quads[k], quads[4 + k], 0xdd);
+  }
+}
+
+}  // namespace
+
+// draw_normals for exactly eight streams, one per AVX-512 lane: xoshiro256** and the ziggurat's
+// common path as RandomStream::next_u64 and normal compute them (integer steps; u from the top 53
+// bits converted exactly; x = u * width[layer] and the compare in double, as the scalar code). A lane
+// whose draw falls outside its layer's core takes RandomStream::normal_outside_core on its own
+// stream, which may draw further values, before the lanes go on: every stream gives its own
+// sequence. Returns how many of the n draws it made (a multiple of 8); the caller draws the rest.
+__attribute__((target("avx512f,avx512dq"))) std::size_t draw_normals_lanes(RandomStream* streams, std::size_t n,
+                                                                           double scale, double* const* out) {
+  alignas(64) std::uint64_t state[4][8];
+  for (int k = 0; k < 4; ++k)
+    for (int lane = 0; lane < 8; ++lane) state[k][lane] = streams[lane].state_[k];
+  __m512i s0 = _mm512_load_si512(state[0]), s1 = _mm512_load_si512(state[1]), s2 = _mm512_load_si512(state[2]),
+          s3 = _mm512_load_si512(state[3]);
+  const detail::ZigguratTables& z = detail::ziggurat_tables();
+  const __m512i layer_mask = _mm512_set1_epi64(127), sign_bit = _mm512_set1_epi64(128);
+  const __m512d unit = _mm512_set1_pd(0x1.0p-53), scales = _mm512_set1_pd(scale);
+  const std::size_t whole = n / 8 * 8;
+  for (std::size_t i = 0; i < whole; i += 8) {
+    __m512d draws[8];
+    for (int step = 0; step < 8; ++step) {
+      // xoshiro256**: result = rotl(s1 * 5, 7) * 9, then the state update.
+      const __m512i times5 = _mm512_add_epi64(s1, _mm512_slli_epi64(s1, 2));
+      const __m512i rotated = _mm512_rol_epi64(times5, 7);
+      const __m512i bits = _mm512_add_epi64(rotated, _mm512_slli_epi64(rotated, 3));
+      const __m512i t = _mm512_slli_epi64(s1, 17);
+      s2 = _mm512_xor_si512(s2, s0);
+      s3 = _mm512_xor_si512(s3, s1);
+      s1 = _mm512_xor_si512(s1, s2);
+      s0 = _mm512_xor_si512(s0, s3);
+      s2 = _mm512_xor_si512(s2, t);
+      s3 = _mm512_rol_epi64(s3, 45);
+      // The ziggurat's core: x = u * width[layer], kept where x < width[layer + 1].
+      const __m512i layer = _mm512_and_si512(bits, layer_mask);
+      const __m512d u = _mm512_mul_pd(_mm512_cvtepu64_pd(_mm512_srli_epi64(bits, 11)), unit);
+      const __m512d x = _mm512_mul_pd(u, _mm512_i64gather_pd(layer, z.width, 8));
+      const __mmask8 inside = _mm512_cmp_pd_mask(x, _mm512_i64gather_pd(layer, z.width + 1, 8), _CMP_LT_OQ);
+      __m512d value = _mm512_castsi512_pd(
+          _mm512_xor_si512(_mm512_castpd_si512(x), _mm512_slli_epi64(_mm512_and_si512(bits, sign_bit), 56)));
+      if (inside != 0xff) {
+        alignas(64) std::uint64_t lane_bits[8];
+        alignas(64) double lane_value[8];
+        _mm512_store_si512(lane_bits, bits);
+        _mm512_store_pd(lane_value, value);
+        _mm512_store_si512(state[0], s0);
+        _mm512_store_si512(state[1], s1);
+        _mm512_store_si512(state[2], s2);
+        _mm512_store_si512(state[3], s3);
+        for (int lane = 0; lane < 8; ++lane) {
+          if (inside & (1u << lane)) continue;
+          RandomStream& stream = streams[lane];
+          for (int k = 0; k < 4; ++k) stream.state_[k] = state[k][lane];
+          lane_value[lane] = stream.normal_outside_core(lane_bits[lane]);
+          for (int k = 0; k < 4; ++k) state[k][lane] = stream.state_[k];
+        }
+        value = _mm512_load_pd(lane_value);
+        s0 = _mm512_load_si512(state[0]);
+        s1 = _mm512_load_si512(state[1]);
+        s2 = _mm512_load_si512(state[2]);
+        s3 = _mm512_load_si512(state[3]);
+      }
+      draws[step] = _mm512_mul_pd(value, scales);
+    }
+    // draws[step] holds draw i + step of every stream; stream `lane` wants its eight in a row.
+    transpose8(draws);
+    for (int lane = 0; lane < 8; ++lane) _mm512_storeu_pd(out[lane] + i, draws[lane]);
+  }
+  _mm512_store_si512(state[0], s0);
+  _mm512_store_si512(state[1], s1);
+  _mm512_store_si512(state[2], s2);
+  _mm512_store_si512(state[3], s3);
+  for (int k = 0; k < 4; ++k)
+    for (int lane = 0; lane < 8; ++lane) streams[lane].state_[k] = state[k][lane];
+  return whole;
+}
+#endif
+
+void draw_normals(RandomStream* streams, std::size_t count, std::size_t n, double scale, double* const* out) {
+  std::size_t first = 0;  // the first stream the scalar loop below draws from
+#if PANOSCAN_RANDOM_AVX512
+  if (cpu_has_avx512dq() && count >= 8) {
+    std::size_t drawn = 0;
+    for (; first + 8 <= count; first += 8) {
+      drawn = draw_normals_lanes(streams + first, n, scale, out + first);
+      for (std::size_t s = first; s < first + 8; ++s)
+        for (std::size_t i = drawn; i < n; ++i) out[s][i] = streams[s].normal() * scale;
+    }
+  }
+#endif
+  for (std::size_t s = first; s < count; ++s)
+    for (std::size_t i = 0; i < n; ++i) out[s][i] = streams[s].normal() * scale;
 }
 
 }  // namespace panoscan

@@ -656,40 +656,73 @@ __attribute__((target("avx2"))) void row_albedo_avx2(RowScratch& row, int padded
     // Misses gather triangle 0's entries, which are then discarded.
     const __m256i triangle =
         _mm256_and_si256(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&row.triangle[x])), hit);
-    const __m256i albedo_index = _mm256_slli_epi32(triangle, 2);
+    // Most blocks lie on one triangle (walls, floors, table tops): its entries are then loaded once
+    // and broadcast instead of gathered per lane, as are the level's where all lanes share it.
+    const unsigned first_triangle = row.triangle[x];
+    const bool one_triangle =
+        _mm256_movemask_epi8(_mm256_cmpeq_epi32(triangle, _mm256_set1_epi32(int(first_triangle)))) == -1 &&
+        _mm256_movemask_epi8(hit) == -1;
     __m256 albedo[3];
-    for (int c = 0; c < 3; ++c)
-      albedo[c] = _mm256_i32gather_ps(in.triangle_albedo, _mm256_add_epi32(albedo_index, _mm256_set1_epi32(c)), 4);
-    const __m256i texture = _mm256_i32gather_epi32(in.triangle_texture, triangle, 4);
+    __m256i texture;
+    if (one_triangle) {
+      for (int c = 0; c < 3; ++c) albedo[c] = _mm256_set1_ps(in.triangle_albedo[4 * std::size_t(first_triangle) + c]);
+      texture = _mm256_set1_epi32(in.triangle_texture[first_triangle]);
+    } else {
+      const __m256i albedo_index = _mm256_slli_epi32(triangle, 2);
+      for (int c = 0; c < 3; ++c)
+        albedo[c] = _mm256_i32gather_ps(in.triangle_albedo, _mm256_add_epi32(albedo_index, _mm256_set1_epi32(c)), 4);
+      texture = _mm256_i32gather_epi32(in.triangle_texture, triangle, 4);
+    }
     const __m256i textured = _mm256_andnot_si256(_mm256_cmpgt_epi32(_mm256_setzero_si256(), texture), hit);
     if (!_mm256_testz_si256(textured, textured)) {
       // uv = (1 - bu - bv) uv0 + bu uv1 + bv uv2, summed left to right as Eigen does.
       const __m256 bu = _mm256_loadu_ps(&row.u[x]), bv = _mm256_loadu_ps(&row.v[x]);
       const __m256 w0 = _mm256_sub_ps(_mm256_sub_ps(one, bu), bv);
-      const __m256i uv_index = _mm256_mullo_epi32(triangle, _mm256_set1_epi32(6));
       __m256 corner[6];
-      for (int k = 0; k < 6; ++k)
-        corner[k] = _mm256_i32gather_ps(in.corner_uvs, _mm256_add_epi32(uv_index, _mm256_set1_epi32(k)), 4);
+      __m256 texels_per_metre;
+      if (one_triangle) {
+        for (int k = 0; k < 6; ++k) corner[k] = _mm256_set1_ps(in.corner_uvs[6 * std::size_t(first_triangle) + k]);
+        texels_per_metre = _mm256_set1_ps(in.texels_per_metre[first_triangle]);
+      } else {
+        const __m256i uv_index = _mm256_mullo_epi32(triangle, _mm256_set1_epi32(6));
+        for (int k = 0; k < 6; ++k)
+          corner[k] = _mm256_i32gather_ps(in.corner_uvs, _mm256_add_epi32(uv_index, _mm256_set1_epi32(k)), 4);
+        texels_per_metre = _mm256_i32gather_ps(in.texels_per_metre, triangle, 4);
+      }
       const __m256 u = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(w0, corner[0]), _mm256_mul_ps(bu, corner[2])),
                                      _mm256_mul_ps(bv, corner[4]));
       const __m256 v = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(w0, corner[1]), _mm256_mul_ps(bu, corner[3])),
                                      _mm256_mul_ps(bv, corner[5]));
       // mip_level: floor(log2(texels per pixel)) from the exponent bits where it is >= 2, else 0,
       // capped at the texture's coarsest level.
-      const __m256 texels_per_pixel =
-          _mm256_mul_ps(_mm256_loadu_ps(&row.footprint[x]), _mm256_i32gather_ps(in.texels_per_metre, triangle, 4));
+      const __m256 texels_per_pixel = _mm256_mul_ps(_mm256_loadu_ps(&row.footprint[x]), texels_per_metre);
       const __m256i exponent = _mm256_sub_epi32(
           _mm256_and_si256(_mm256_srli_epi32(_mm256_castps_si256(texels_per_pixel), 23), byte), _mm256_set1_epi32(127));
       const __m256i finer_levels = _mm256_and_si256(
           exponent, _mm256_castps_si256(_mm256_cmp_ps(texels_per_pixel, _mm256_set1_ps(2.f), _CMP_GE_OQ)));
-      const __m256i safe_texture = _mm256_and_si256(texture, textured);
-      const __m256i level = _mm256_add_epi32(
-          _mm256_i32gather_epi32(in.texture_first_level, safe_texture, 4),
-          _mm256_min_epi32(finer_levels,
-                           _mm256_sub_epi32(_mm256_i32gather_epi32(in.texture_level_count, safe_texture, 4), one_i)));
-      const __m256i width = _mm256_i32gather_epi32(in.level_width, level, 4);
-      const __m256i height = _mm256_i32gather_epi32(in.level_height, level, 4);
-      const __m256i offset = _mm256_i32gather_epi32(in.level_offset, level, 4);
+      __m256i level;
+      if (one_triangle) {
+        const int t = in.triangle_texture[first_triangle];
+        level = _mm256_add_epi32(_mm256_set1_epi32(in.texture_first_level[t]),
+                                 _mm256_min_epi32(finer_levels, _mm256_set1_epi32(in.texture_level_count[t] - 1)));
+      } else {
+        const __m256i safe_texture = _mm256_and_si256(texture, textured);
+        level = _mm256_add_epi32(
+            _mm256_i32gather_epi32(in.texture_first_level, safe_texture, 4),
+            _mm256_min_epi32(finer_levels,
+                             _mm256_sub_epi32(_mm256_i32gather_epi32(in.texture_level_count, safe_texture, 4), one_i)));
+      }
+      __m256i width, height, offset;
+      const int first_level = _mm256_cvtsi256_si32(level);
+      if (_mm256_movemask_epi8(_mm256_cmpeq_epi32(level, _mm256_set1_epi32(first_level))) == -1) {
+        width = _mm256_set1_epi32(in.level_width[first_level]);
+        height = _mm256_set1_epi32(in.level_height[first_level]);
+        offset = _mm256_set1_epi32(in.level_offset[first_level]);
+      } else {
+        width = _mm256_i32gather_epi32(in.level_width, level, 4);
+        height = _mm256_i32gather_epi32(in.level_height, level, 4);
+        offset = _mm256_i32gather_epi32(in.level_offset, level, 4);
+      }
       // sample_texture: wrap, then the four texels around the sample point.
       const __m256 wrapped_u = _mm256_sub_ps(u, _mm256_floor_ps(u));
       const __m256 flipped_v = _mm256_sub_ps(one, v);

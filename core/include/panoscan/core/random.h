@@ -4,6 +4,7 @@
 // results are identical across standard libraries and cheap enough for per-pixel noise.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 
@@ -41,6 +42,14 @@ struct ZigguratTables {
 };
 const ZigguratTables& ziggurat_tables();
 }  // namespace detail
+
+class RandomStream;
+
+// `n` normal deviates from each of `count` streams, times `scale`: out[s][i] = streams[s].normal() *
+// scale for i = 0 .. n - 1, each stream advanced as those calls advance it. Where the CPU has
+// AVX-512, eight streams draw at once in its lanes (the simulator's per-pixel noise draws three
+// deviates per pixel, one stream per row): the same values bit for bit, whatever `count`.
+void draw_normals(RandomStream* streams, std::size_t count, std::size_t n, double scale, double* const* out);
 
 class RandomStream {
  public:
@@ -86,6 +95,8 @@ class RandomStream {
   int uniform_int(int lo, int hi_inclusive);
 
  private:
+  friend void draw_normals(RandomStream*, std::size_t, std::size_t, double, double* const*);
+  friend std::size_t draw_normals_lanes(RandomStream*, std::size_t, double, double* const*);
   static std::uint64_t rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
   // The rest of normal() for a draw `bits` outside its layer's core: the tail or the wedge, and
   // further draws while they are rejected.
