@@ -478,10 +478,84 @@ bool cpu_has_avx() {
 
 #endif
 
+#if PANOSCAN_RENDER_AVX
+bool cpu_has_avx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+}
+
+// row_geometry with eight pixels per AVX operation (the same per-lane operations, no FMA, so the
+// same values): its two divisions and two square roots per pixel bound it, and an 8-lane one costs
+// about what a 4-lane one does here.
+__attribute__((target("avx"))) void row_geometry_avx(RowScratch& row, int padded_width, const Eigen::Vector3f& origin,
+                                                     float inv_fx) {
+  const __m256 sign_bit = _mm256_set1_ps(-0.f);
+  const __m256 origin_x = _mm256_set1_ps(origin.x()), origin_y = _mm256_set1_ps(origin.y()),
+               origin_z = _mm256_set1_ps(origin.z());
+  for (int x = 0; x < padded_width; x += 8) {
+    const __m256 t = _mm256_loadu_ps(&row.t[x]);
+    const __m256 dx = _mm256_loadu_ps(&row.dir_x[x]), dy = _mm256_loadu_ps(&row.dir_y[x]),
+                 dz = _mm256_loadu_ps(&row.dir_z[x]);
+    const __m256 nx = _mm256_loadu_ps(&row.normal_x[x]), ny = _mm256_loadu_ps(&row.normal_y[x]),
+                 nz = _mm256_loadu_ps(&row.normal_z[x]);
+    const __m256 hit = _mm256_castsi256_ps(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&row.hit[x])));
+    const __m256 length = _mm256_sqrt_ps(
+        _mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_add_ps(_mm256_mul_ps(dy, dy), _mm256_mul_ps(dz, dz))));
+    const __m256 dot =
+        _mm256_add_ps(_mm256_mul_ps(nx, dx), _mm256_add_ps(_mm256_mul_ps(ny, dy), _mm256_mul_ps(nz, dz)));
+    const __m256 incidence = _mm256_div_ps(_mm256_andnot_ps(sign_bit, dot), length);
+    const __m256 footprint = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(t, length), _mm256_set1_ps(inv_fx)),
+                                           _mm256_sqrt_ps(_mm256_max_ps(incidence, _mm256_set1_ps(0.05f))));
+    const __m256 flip = _mm256_and_ps(_mm256_cmp_ps(dot, _mm256_setzero_ps(), _CMP_GT_OQ), sign_bit);
+    _mm256_storeu_ps(&row.normal_x[x], _mm256_xor_ps(nx, flip));
+    _mm256_storeu_ps(&row.normal_y[x], _mm256_xor_ps(ny, flip));
+    _mm256_storeu_ps(&row.normal_z[x], _mm256_xor_ps(nz, flip));
+    _mm256_storeu_ps(&row.point_x[x], _mm256_add_ps(origin_x, _mm256_mul_ps(t, dx)));
+    _mm256_storeu_ps(&row.point_y[x], _mm256_add_ps(origin_y, _mm256_mul_ps(t, dy)));
+    _mm256_storeu_ps(&row.point_z[x], _mm256_add_ps(origin_z, _mm256_mul_ps(t, dz)));
+    _mm256_storeu_ps(&row.footprint[x], footprint);
+    _mm256_storeu_ps(&row.incidence[x], _mm256_and_ps(incidence, hit));
+    _mm256_storeu_ps(&row.depth[x], _mm256_and_ps(t, hit));
+  }
+}
+
+// The hit triangles' unit normals (`normals`: x, y, z per triangle), +z for a miss, eight pixels
+// per AVX2 gather, or one load where the eight share a triangle.
+__attribute__((target("avx2"))) void row_normals_avx2(RowScratch& row, int padded_width, const float* normals) {
+  for (int x = 0; x < padded_width; x += 8) {
+    const __m256i hit = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(&row.hit[x]));
+    const __m256i triangle =
+        _mm256_and_si256(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&row.triangle[x])), hit);
+    const unsigned first = row.triangle[x];
+    __m256 n[3];
+    if (_mm256_movemask_epi8(_mm256_cmpeq_epi32(triangle, _mm256_set1_epi32(int(first)))) == -1 &&
+        _mm256_movemask_epi8(hit) == -1) {
+      for (int c = 0; c < 3; ++c) n[c] = _mm256_set1_ps(normals[3 * std::size_t(first) + c]);
+    } else {
+      const __m256i index = _mm256_mullo_epi32(triangle, _mm256_set1_epi32(3));
+      for (int c = 0; c < 3; ++c) n[c] = _mm256_i32gather_ps(normals + c, index, 4);
+      const __m256 miss = _mm256_castsi256_ps(_mm256_cmpeq_epi32(hit, _mm256_setzero_si256()));
+      n[0] = _mm256_andnot_ps(miss, n[0]);
+      n[1] = _mm256_andnot_ps(miss, n[1]);
+      n[2] = _mm256_blendv_ps(n[2], _mm256_set1_ps(1.f), miss);
+    }
+    _mm256_storeu_ps(&row.normal_x[x], n[0]);
+    _mm256_storeu_ps(&row.normal_y[x], n[1]);
+    _mm256_storeu_ps(&row.normal_z[x], n[2]);
+  }
+}
+#endif
+
 // The per-pixel geometry of a traced row, four pixels per SSE operation where the CPU has SSE2:
 // incidence, footprint, hit point and the normal turned towards the ray, each the same float
 // operations in the same order as Renderer::Impl::shade's callers compute them for one pixel.
 void row_geometry(RowScratch& row, int padded_width, const Eigen::Vector3f& origin, float inv_fx) {
+#if PANOSCAN_RENDER_AVX
+  if (padded_width % 8 == 0 && cpu_has_avx()) {
+    row_geometry_avx(row, padded_width, origin, inv_fx);
+    return;
+  }
+#endif
 #if defined(__SSE2__)
   const __m128 sign_bit = _mm_set1_ps(-0.f);
   const __m128 origin_x = _mm_set1_ps(origin.x()), origin_y = _mm_set1_ps(origin.y()),
@@ -636,11 +710,6 @@ struct AlbedoLanes {
   const std::int32_t* level_height;
   const std::uint8_t* texels;  // padded: a 4-byte load at the last texel stays inside
 };
-
-bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
-}
 
 // Renderer::Impl::albedo_at for eight pixels per AVX2 operation (meshes without vertex colours):
 // the material's albedo, times the bilinear texel of the pixel's mip level where the material has a
@@ -823,8 +892,9 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
   // textures each stay in cache for a whole pass, and the two can be timed apart.
   RowScratch row(padded_width);
 #if PANOSCAN_RENDER_AVX
+  const bool use_avx2 = cpu_has_avx2() && !impl.triangle_normals.empty();
   std::optional<AlbedoLanes> albedo_lanes;
-  if (!impl.triangle_texture.empty() && cpu_has_avx2())
+  if (!impl.triangle_texture.empty() && use_avx2)
     albedo_lanes = AlbedoLanes{impl.triangle_texture.data(),
                                impl.triangle_albedo.data(),
                                scene.mesh.corner_uvs.empty() ? nullptr : scene.mesh.corner_uvs.data()->data(),
@@ -843,28 +913,42 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
     for (int x0 = 0; x0 < width; x0 += kRenderLanes) {
       rays.trace(impl.rtc_scene, &context, x0);
       const RenderPacket& packet = rays.packet();
+      // Field by field, so that each loop is a few vector copies (one loop over all fields per lane
+      // was scalar loads and stores).
+      std::int32_t* hit = &row.hit[x0];
+      for (int lane = 0; lane < kRenderLanes; ++lane)
+        hit[lane] = packet.hit.geomID[lane] != RTC_INVALID_GEOMETRY_ID ? -1 : 0;
       for (int lane = 0; lane < kRenderLanes; ++lane) {
-        const int x = x0 + lane;
-        const bool hit = packet.hit.geomID[lane] != RTC_INVALID_GEOMETRY_ID;
-        row.t[x] = hit ? packet.ray.tfar[lane] : 0.f;
-        row.u[x] = packet.hit.u[lane];
-        row.v[x] = packet.hit.v[lane];
-        row.triangle[x] = hit ? packet.hit.primID[lane] : RTC_INVALID_GEOMETRY_ID;
-        row.hit[x] = hit ? -1 : 0;
-        row.dir_x[x] = packet.ray.dir_x[lane];
-        row.dir_y[x] = packet.ray.dir_y[lane];
-        row.dir_z[x] = packet.ray.dir_z[lane];
+        // t where hit, else 0; the primitive where hit, else RTC_INVALID_GEOMETRY_ID (all ones).
+        std::uint32_t t_bits;
+        std::memcpy(&t_bits, &packet.ray.tfar[lane], sizeof t_bits);
+        t_bits &= std::uint32_t(hit[lane]);
+        std::memcpy(&row.t[x0 + lane], &t_bits, sizeof t_bits);
+        row.triangle[x0 + lane] = packet.hit.primID[lane] | ~std::uint32_t(hit[lane]);
       }
+      const std::size_t bytes = sizeof(float) * kRenderLanes;
+      std::memcpy(&row.u[x0], packet.hit.u, bytes);
+      std::memcpy(&row.v[x0], packet.hit.v, bytes);
+      std::memcpy(&row.dir_x[x0], packet.ray.dir_x, bytes);
+      std::memcpy(&row.dir_y[x0], packet.ray.dir_y, bytes);
+      std::memcpy(&row.dir_z[x0], packet.ray.dir_z, bytes);
     }
     const std::int64_t traced_at = times ? now_ns() : 0;
 
-    for (int x = 0; x < padded_width; ++x) {
-      // A miss gets a placeholder normal: its lanes compute values that are then discarded.
-      const Eigen::Vector3f& normal =
-          row.hit[x] ? impl.triangle_normals[row.triangle[x]] : Eigen::Vector3f::UnitZ().eval();
-      row.normal_x[x] = normal.x();
-      row.normal_y[x] = normal.y();
-      row.normal_z[x] = normal.z();
+#if PANOSCAN_RENDER_AVX
+    if (use_avx2) {
+      row_normals_avx2(row, padded_width, impl.triangle_normals.data()->data());
+    } else
+#endif
+    {
+      for (int x = 0; x < padded_width; ++x) {
+        // A miss gets a placeholder normal: its lanes compute values that are then discarded.
+        const Eigen::Vector3f& normal =
+            row.hit[x] ? impl.triangle_normals[row.triangle[x]] : Eigen::Vector3f::UnitZ().eval();
+        row.normal_x[x] = normal.x();
+        row.normal_y[x] = normal.y();
+        row.normal_z[x] = normal.z();
+      }
     }
     row_geometry(row, padded_width, origin, inv_fx);
     std::memcpy(out.depth.row(y), row.depth.data(), sizeof(float) * width);
