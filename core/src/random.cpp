@@ -88,6 +88,11 @@ double RandomStream::normal_outside_core(std::uint64_t bits) {
 namespace panoscan {
 
 #if PANOSCAN_RANDOM_AVX512
+// GCC 12's AVX-512 intrinsics pass _mm512_undefined_epi32() as the unused merge source, which it then
+// reports as "may be used uninitialized" where they inline into a target("avx512f") function (GCC
+// bug 105593): silenced for this section only.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 namespace {
 
 bool cpu_has_avx512dq() {
@@ -155,26 +160,26 @@ __attribute__((target("avx512f,avx512dq"))) std::size_t draw_normals_lanes(Rando
       __m512d value = _mm512_castsi512_pd(
           _mm512_xor_si512(_mm512_castpd_si512(x), _mm512_slli_epi64(_mm512_and_si512(bits, sign_bit), 56)));
       if (inside != 0xff) {
+        // The lanes outside their core run the scalar rest of normal() on their own stream. Their
+        // states and values go back into the registers lane by lane (a masked broadcast): reloading
+        // a vector from lanes just stored one by one would stall on the failed store forwarding.
         alignas(64) std::uint64_t lane_bits[8];
-        alignas(64) double lane_value[8];
         _mm512_store_si512(lane_bits, bits);
-        _mm512_store_pd(lane_value, value);
         _mm512_store_si512(state[0], s0);
         _mm512_store_si512(state[1], s1);
         _mm512_store_si512(state[2], s2);
         _mm512_store_si512(state[3], s3);
-        for (int lane = 0; lane < 8; ++lane) {
-          if (inside & (1u << lane)) continue;
+        for (unsigned lanes = ~inside & 0xffu; lanes; lanes &= lanes - 1) {
+          const int lane = __builtin_ctz(lanes);
+          const __mmask8 lane_mask = __mmask8(1u << lane);
           RandomStream& stream = streams[lane];
           for (int k = 0; k < 4; ++k) stream.state_[k] = state[k][lane];
-          lane_value[lane] = stream.normal_outside_core(lane_bits[lane]);
-          for (int k = 0; k < 4; ++k) state[k][lane] = stream.state_[k];
+          value = _mm512_mask_broadcastsd_pd(value, lane_mask, _mm_set_sd(stream.normal_outside_core(lane_bits[lane])));
+          s0 = _mm512_mask_set1_epi64(s0, lane_mask, (long long)stream.state_[0]);
+          s1 = _mm512_mask_set1_epi64(s1, lane_mask, (long long)stream.state_[1]);
+          s2 = _mm512_mask_set1_epi64(s2, lane_mask, (long long)stream.state_[2]);
+          s3 = _mm512_mask_set1_epi64(s3, lane_mask, (long long)stream.state_[3]);
         }
-        value = _mm512_load_pd(lane_value);
-        s0 = _mm512_load_si512(state[0]);
-        s1 = _mm512_load_si512(state[1]);
-        s2 = _mm512_load_si512(state[2]);
-        s3 = _mm512_load_si512(state[3]);
       }
       draws[step] = _mm512_mul_pd(value, scales);
     }
@@ -190,6 +195,7 @@ __attribute__((target("avx512f,avx512dq"))) std::size_t draw_normals_lanes(Rando
     for (int lane = 0; lane < 8; ++lane) streams[lane].state_[k] = state[k][lane];
   return whole;
 }
+#pragma GCC diagnostic pop
 #endif
 
 void draw_normals(RandomStream* streams, std::size_t count, std::size_t n, double scale, double* const* out) {

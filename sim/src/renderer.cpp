@@ -156,6 +156,15 @@ struct Renderer::Impl {
   }
 
   void build_mip_levels() {
+    // Reserve the whole pyramid first: growing the array level by level copied it over and over.
+    std::size_t total = 4;
+    for (const Texture& texture : scene.textures)
+      for (int width = texture.width, height = texture.height;;
+           width = std::max(1, width / 2), height = std::max(1, height / 2)) {
+        total += std::size_t(width) * height * 3;
+        if (width <= 1 || height <= 1) break;
+      }
+    texels.reserve(total);
     for (const Texture& texture : scene.textures) {
       texture_first_level.push_back(std::int32_t(level_width.size()));
       std::vector<std::uint8_t> fine = texture.rgb;
