@@ -39,7 +39,8 @@ const std::vector<double>& depth_of_disparity_table() {
 // operation; returns the first pixel it did not do (a multiple of 4), the rest being the scalar
 // loop's. Each lane computes exactly the scalar loop's double operations in its order (AVX2 without
 // FMA rounds each lane as the scalar instruction does; min / max are std::clamp's values for the
-// finite values here; gathers load the same table entries), so the noise is bit for bit the same.
+// finite values here; the depth of a disparity is the table's quotient, divided afresh), so the
+// noise is bit for bit the same.
 // Only compiled for x86-64, and only called where the CPU has AVX2 (checked once at run time).
 #if defined(__x86_64__) && defined(__GNUC__)
 #define PANOSCAN_NOISE_AVX2 1
@@ -52,7 +53,6 @@ struct RowModel {
 
   const double* disparity_noise;
   const double* speckle_noise;
-  const double* depth_of_disparity;  // kDepthTableSize entries
   float* noisy_row;
   int width, height, y;
   double min_cos, min_depth, max_depth;
@@ -65,7 +65,6 @@ __attribute__((target("avx2"))) int handa_row_avx2(const RowModel& m) {
   const __m256d min_cos = _mm256_set1_pd(m.min_cos), min_depth = _mm256_set1_pd(m.min_depth),
                 max_depth = _mm256_set1_pd(m.max_depth);
   const __m256d disparity_times_metres = _mm256_set1_pd(kDisparityTimesMetres);
-  const __m256d table_size = _mm256_set1_pd(double(kDepthTableSize));
   const __m128i width_minus_1 = _mm_set1_epi32(m.width - 1), height_minus_1 = _mm_set1_epi32(m.height - 1);
   const __m128i width_i = _mm_set1_epi32(m.width), one_i = _mm_set1_epi32(1);
   const __m256d row_y = _mm256_set1_pd(double(m.y));
@@ -115,20 +114,10 @@ __attribute__((target("avx2"))) int handa_row_avx2(const RowModel& m) {
                       _mm256_loadu_pd(m.speckle_noise + x));
     const __m256d rounded = _mm256_add_pd(disparity, half);
     valid = _mm256_and_pd(valid, _mm256_cmp_pd(rounded, one, _CMP_GE_OQ));
-    const __m256d in_table = _mm256_and_pd(valid, _mm256_cmp_pd(rounded, table_size, _CMP_LT_OQ));
-    // Lanes off the table (a disparity of 4096 or more: nearer than 9 cm) are left to the scalar
-    // formula below; the gather loads only the lanes in the table.
-    const __m128i index = _mm256_cvttpd_epi32(_mm256_and_pd(rounded, in_table));
-    __m256d z_noisy = _mm256_mask_i32gather_pd(zero, m.depth_of_disparity, index, in_table, 8);
-    const int off_table = _mm256_movemask_pd(_mm256_andnot_pd(in_table, valid));
-    if (off_table) {
-      alignas(32) double lanes[4], rounded_lanes[4];
-      _mm256_store_pd(lanes, z_noisy);
-      _mm256_store_pd(rounded_lanes, rounded);
-      for (int k = 0; k < 4; ++k)
-        if (off_table & (1 << k)) lanes[k] = kDisparityTimesMetres / std::floor(rounded_lanes[k]);
-      z_noisy = _mm256_load_pd(lanes);
-    }
+    // K / floor(rounded): the table's entry where it has one (the same correctly rounded quotient of
+    // the same operands) and the scalar loop's formula past it. A 4-lane division is cheaper here
+    // than the gather it replaces; invalid lanes divide garbage and are masked below.
+    const __m256d z_noisy = _mm256_div_pd(disparity_times_metres, _mm256_floor_pd(rounded));
     valid = _mm256_and_pd(valid, _mm256_and_pd(_mm256_cmp_pd(z_noisy, min_depth, _CMP_NLT_UQ),
                                                _mm256_cmp_pd(z_noisy, max_depth, _CMP_NGT_UQ)));
     // Invalid lanes stay 0, as the row was.
@@ -259,7 +248,6 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
                                shift,
                                disparity_noise,
                                speckle_noise.data(),
-                               depth_of_disparity.data(),
                                noisy_row,
                                width,
                                height,
