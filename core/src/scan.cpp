@@ -55,6 +55,10 @@
 #include <sstream>
 
 #include <nlohmann/json.hpp>
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define PANOSCAN_DEPTH_UNITS_AVX2 1
+#endif
 
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/pose_json.h"
@@ -509,11 +513,60 @@ ImageI32 read_groundtruth_ids(const ScanIndex& scan, int sensor, double timestam
 
 // ---- depth units ----
 
+#if PANOSCAN_DEPTH_UNITS_AVX2
+namespace {
+
+// depth_to_png_units' loop for the pixels [0, n / 4 * 4), four per AVX2 operation, each lane the
+// scalar loop's double operations: valid where 0 < z < inf and z * scale <= 65535.5, then rounded half
+// up from the truncation and kept where <= 65535; 0 elsewhere. Returns the first pixel not done. The
+// scalar loop was 2% of a sim run.
+__attribute__((target("avx2"))) std::size_t depth_units_avx2(const float* depth, std::size_t n, double depth_scale,
+                                                             std::uint16_t* units) {
+  const __m256d zero = _mm256_setzero_pd(), infinity = _mm256_set1_pd(std::numeric_limits<double>::infinity());
+  const __m256d scale = _mm256_set1_pd(depth_scale), limit = _mm256_set1_pd(65535.5), half = _mm256_set1_pd(0.5);
+  const std::size_t end = n / 4 * 4;
+  for (std::size_t i = 0; i < end; i += 4) {
+    const __m256d z = _mm256_cvtps_pd(_mm_loadu_ps(depth + i));
+    const __m256d scaled = _mm256_mul_pd(z, scale);
+    const __m256d in_range =
+        _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(z, zero, _CMP_GT_OQ), _mm256_cmp_pd(z, infinity, _CMP_LT_OQ)),
+                      _mm256_cmp_pd(scaled, limit, _CMP_LE_OQ));
+    // Out-of-range lanes convert 0 (their product may be beyond int32) and are zeroed below.
+    const __m256d safe = _mm256_and_pd(scaled, in_range);
+    const __m128i truncated = _mm256_cvttpd_epi32(safe);
+    const __m256d fraction = _mm256_sub_pd(safe, _mm256_cvtepi32_pd(truncated));
+    const __m128i round_up =
+        _mm256_cvtpd_epi32(_mm256_and_pd(_mm256_cmp_pd(fraction, half, _CMP_GE_OQ), _mm256_set1_pd(1.0)));
+    const __m128i rounded = _mm_add_epi32(truncated, round_up);
+    // The 64-bit lane masks narrowed to 32 bits: a double's mask is all ones or all zeros, so its low
+    // half is the lane's 32-bit mask.
+    const __m128i lane_mask = _mm256_castsi256_si128(
+        _mm256_permutevar8x32_epi32(_mm256_castpd_si256(in_range), _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6)));
+    const __m128i value =
+        _mm_and_si128(_mm_and_si128(rounded, lane_mask), _mm_cmpgt_epi32(_mm_set1_epi32(65536), rounded));
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(units + i), _mm_packus_epi32(value, value));
+  }
+  return end;
+}
+
+bool cpu_has_avx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+}
+
+}  // namespace
+#endif
+
 ImageU16 depth_to_png_units(const ImageF32& depth_m, double depth_scale) {
   check_depth_scale(depth_scale);
   check_image_shape(depth_m, 1, "", "depth");
   ImageU16 units(depth_m.width, depth_m.height, 1, 0);
-  for (std::size_t i = 0; i < depth_m.data.size(); ++i) {
+  std::size_t first = 0;
+#if PANOSCAN_DEPTH_UNITS_AVX2
+  if (cpu_has_avx2())
+    first = depth_units_avx2(depth_m.data.data(), depth_m.data.size(), depth_scale, units.data.data());
+#endif
+  for (std::size_t i = first; i < depth_m.data.size(); ++i) {
     const double z = depth_m.data[i];
     // NaN, infinity, zero and negative depths are all "no measurement".
     if (!std::isfinite(z) || !(z > 0.0)) continue;
