@@ -962,8 +962,9 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
     row_geometry(row, padded_width, origin, inv_fx);
     std::memcpy(out.depth.row(y), row.depth.data(), sizeof(float) * width);
     std::memcpy(out.incidence_cos.row(y), row.incidence.data(), sizeof(float) * width);
-    std::int32_t* triangle_ids = out.triangle_id.row(y);
-    for (int x = 0; x < width; ++x) triangle_ids[x] = row.hit[x] ? static_cast<int>(row.triangle[x]) : -1;
+    // A miss's triangle is RTC_INVALID_GEOMETRY_ID, all ones: -1 as an int32, as the image has it.
+    static_assert(RTC_INVALID_GEOMETRY_ID == 0xFFFFFFFFu, "misses must read as triangle id -1");
+    std::memcpy(out.triangle_id.row(y), row.triangle.data(), sizeof(std::int32_t) * width);
     if (request.normals) {
       // The side the ray arrives from: a one-sided mesh seen from behind still gets a normal
       // that faces the camera, as the shading does (row_geometry turned it).
