@@ -163,13 +163,18 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
   // range): such a pixel invalidates every lookup that touches it. Computed once per frame so
   // that the per-pixel lookup needs no division. The float quotient is the double one rounded to
   // float (double carries more than twice float's precision), and unlike it vectorises.
+  // Rows in parallel: done before the model, whose lookups reach into neighbouring rows, it was a
+  // serial pass between two parallel ones.
   ImageF32 inverse_depth(width, height, 1, 0.0f);
   const double min_depth = options.min_depth_m, max_depth = options.max_depth_m;
-  for (std::size_t i = 0; i < clean.data.size(); ++i) {
-    const float z = clean.data[i];
-    const bool in_range = double(z) >= min_depth && double(z) <= max_depth;
-    inverse_depth.data[i] = in_range ? 1.0f / z : 0.0f;
-  }
+  tbb::parallel_for(tbb::blocked_range<int>(0, height, 16), [&](const tbb::blocked_range<int>& rows) {
+    const std::size_t end = std::size_t(rows.end()) * width;
+    for (std::size_t i = std::size_t(rows.begin()) * width; i < end; ++i) {
+      const float z = clean.data[i];
+      const bool in_range = double(z) >= min_depth && double(z) <= max_depth;
+      inverse_depth.data[i] = in_range ? 1.0f / z : 0.0f;
+    }
+  });
 
   if (!noisy_preset) {
     for (std::size_t i = 0; i < clean.data.size(); ++i) {

@@ -10,6 +10,7 @@
 #include <optional>
 
 #include <nlohmann/json.hpp>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
@@ -165,12 +166,10 @@ std::string Simulator::rig_truth_json() const {
                  {"axis_tilt_deg", m.axis_tilt_deg},
                  {"axis_tilt_azimuth_deg", m.axis_tilt_azimuth_deg}};
   if (m.kind == MotionKind::kHandheld)
-    j["motion"]["handheld"] = {{"duration_s", m.handheld_duration_s},
-                               {"translation_m", m.handheld_translation_m},
-                               {"height_m", m.handheld_height_m},
-                               {"yaw_deg", m.handheld_yaw_deg},
-                               {"tilt_deg", m.handheld_tilt_deg},
-                               {"band_hz", {m.handheld_band_low_hz, m.handheld_band_high_hz}}};
+    j["motion"]["handheld"] = {
+        {"duration_s", m.handheld_duration_s}, {"translation_m", m.handheld_translation_m},
+        {"height_m", m.handheld_height_m},     {"yaw_deg", m.handheld_yaw_deg},
+        {"tilt_deg", m.handheld_tilt_deg},     {"band_hz", {m.handheld_band_low_hz, m.handheld_band_high_hz}}};
   const auto& s = options_.shutter;
   j["shutter"] = {
       {"fps", s.fps}, {"jitter_ms", s.jitter_ms}, {"drift_ppm", s.drift_ppm}, {"start_time_s", s.start_time_s}};
@@ -220,9 +219,16 @@ SimulatedFrame Simulator::render_frame(const FrameTime& frame, StageClocks* cloc
 
   std::optional<ScopedClock> clock(std::in_place, clocks ? &clocks->depth_noise : nullptr);
   // Noiseless ground-truth depth: the exact z, limited to the sensor's range.
-  out.clean_depth = view.depth;
-  for (float& z : out.clean_depth.data)
-    if (z < options_.noise.min_depth_m || z > options_.noise.max_depth_m) z = 0.f;
+  // Rows in parallel: a serial pass here was 4% of a frame's time.
+  out.clean_depth = ImageF32(view.depth.width, view.depth.height, 1);
+  tbb::parallel_for(tbb::blocked_range<int>(0, view.depth.height, 16), [&](const tbb::blocked_range<int>& rows) {
+    const std::size_t begin = std::size_t(rows.begin()) * view.depth.width;
+    const std::size_t end = std::size_t(rows.end()) * view.depth.width;
+    for (std::size_t i = begin; i < end; ++i) {
+      const float z = view.depth.data[i];
+      out.clean_depth.data[i] = z < options_.noise.min_depth_m || z > options_.noise.max_depth_m ? 0.f : z;
+    }
+  });
 
   DepthNoiseInput input;
   input.clean_depth = &view.depth;
