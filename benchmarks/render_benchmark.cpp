@@ -5,6 +5,7 @@
 //
 //   build/benchmarks/render_benchmark                           # all
 //   build/benchmarks/render_benchmark --benchmark_filter=Rays   # the ray ratios only
+#include <chrono>
 #include <filesystem>
 
 #include <benchmark/benchmark.h>
@@ -41,26 +42,49 @@ std::vector<Rigid3d> view_poses(const Simulator& sim, int count) {
   return poses;
 }
 
-// Bare Embree over the same rays as the full render: `intersect` is the renderer's single-ray or
-// packet loop over a block of rows.
+// One view of bare Embree over the same rays as the full render: `intersect` is the renderer's
+// single-ray or packet loop over a block of rows. Returns the hits.
+template <typename Intersect>
+std::size_t bare_embree_view(const Simulator& sim, const Rigid3d& pose, Intersect intersect) {
+  const PinholeIntrinsics& k = sim.rig().intrinsics;
+  return tbb::parallel_reduce(
+      tbb::blocked_range<int>(0, k.height, 8), std::size_t(0),
+      [&](const tbb::blocked_range<int>& rows, std::size_t sum) {
+        return sum + intersect(sim.renderer(), pose, k, rows.begin(), rows.end());
+      },
+      std::plus<>());
+}
+
 template <typename Intersect>
 void bare_embree(benchmark::State& state, Intersect intersect) {
   const Simulator sim(office(), 0, full_size_options());
   const auto poses = view_poses(sim, 30);
   const PinholeIntrinsics& k = sim.rig().intrinsics;
   std::size_t view = 0, hits = 0;
-  for (auto _ : state) {
-    const Rigid3d& pose = poses[view++ % poses.size()];
-    hits += tbb::parallel_reduce(
-        tbb::blocked_range<int>(0, k.height, 8), std::size_t(0),
-        [&](const tbb::blocked_range<int>& rows, std::size_t sum) {
-          return sum + intersect(sim.renderer(), pose, k, rows.begin(), rows.end());
-        },
-        std::plus<>());
-  }
+  for (auto _ : state) hits += bare_embree_view(sim, poses[view++ % poses.size()], intersect);
   benchmark::DoNotOptimize(hits);
   state.counters["rays_per_s"] =
       benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
+}
+
+std::size_t packets8(const Renderer& r, const Rigid3d& pose, const PinholeIntrinsics& k, int begin, int end) {
+  return r.intersect_only_packets(pose, k, begin, end);
+}
+
+// Rays per second of the 8-ray packet loop over about `seconds` of views: BM_SimEndToEnd's reference,
+// measured right before and after the run it is compared with.
+double packet_rate(const Simulator& sim, double seconds) {
+  const auto poses = view_poses(sim, 30);
+  const PinholeIntrinsics& k = sim.rig().intrinsics;
+  const auto start = std::chrono::steady_clock::now();
+  std::size_t views = 0, hits = 0;
+  double elapsed = 0;
+  do {
+    hits += bare_embree_view(sim, poses[views++ % poses.size()], packets8);
+    elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  } while (elapsed < seconds);
+  benchmark::DoNotOptimize(hits);
+  return double(views) * k.width * k.height / elapsed;
 }
 
 void BM_RaysBareEmbree(benchmark::State& state) {
@@ -69,11 +93,7 @@ void BM_RaysBareEmbree(benchmark::State& state) {
   });
 }
 
-void BM_RaysBareEmbreePackets(benchmark::State& state) {
-  bare_embree(state, [](const Renderer& r, const Rigid3d& pose, const PinholeIntrinsics& k, int begin, int end) {
-    return r.intersect_only_packets(pose, k, begin, end);
-  });
-}
+void BM_RaysBareEmbreePackets(benchmark::State& state) { bare_embree(state, packets8); }
 
 // Packets of 16, as the renderer traces them: how much of the renderer's speed is the wider packet.
 void BM_RaysBareEmbreePackets16(benchmark::State& state) {
@@ -124,6 +144,9 @@ void BM_SimEndToEnd(benchmark::State& state) {
   const fs::path out = fs::temp_directory_path() / "panoscan-bench-scan";
   double bytes = 0;
   SimStageTimes times;
+  // The 8-ray packet reference right before and after the run: on a VM whose speed drifts by 10-20%
+  // over minutes, BM_RaysBareEmbreePackets (run long before) made this ratio move with the drift.
+  const double packets_before = packet_rate(sim, 5.0);  // outside the timed loop
   for (auto _ : state) {
     sim.write_scan(out, true, &times);
     state.PauseTiming();
@@ -132,6 +155,9 @@ void BM_SimEndToEnd(benchmark::State& state) {
       if (entry.is_regular_file()) bytes += double(entry.file_size());
     state.ResumeTiming();
   }
+  const double packets_after = packet_rate(sim, 5.0);
+  state.counters["packets8_rays_per_s"] = 0.5 * (packets_before + packets_after);
+  state.counters["packets8_after_over_before"] = packets_after / packets_before;
   fs::remove_all(out);
   state.counters["frames"] = double(times.frames);
   state.counters["disk_MB"] = bytes / 1e6;
