@@ -42,6 +42,7 @@ void TrackingOptions::check(const std::string& origin) const {
               linear_solver == "iterative_schur" || linear_solver == "dense_schur",
           "track.linear_solver", "must be sparse_schur, dense_schur, iterative_schur or sparse_normal_cholesky");
   require(threads >= 0, "threads", "must be >= 0");
+  require(solver_threads >= 0, "track.solver_threads", "must be >= 0");
   require(depth_odometry_block_px >= 1 && depth_odometry_block_px <= 64, "track.depth_odometry_block_px",
           "must be in [1, 64]");
   require(depth_odometry_information_scale > 0 && depth_odometry_information_scale <= 1e6,
@@ -136,6 +137,7 @@ TrackingOptions tracking_options_from_config(Config& config) {
                         {"sparse_schur", "dense_schur", "iterative_schur", "sparse_normal_cholesky"});
   o.schur_ordering = config.get_string("track.schur_ordering", o.schur_ordering, {"landmarks", "automatic"});
   o.threads = config.get_int("threads", 0, 0, 1024);
+  o.solver_threads = config.get_int("track.solver_threads", o.solver_threads, 0, 1024);
   FrontendOptions& f = o.frontend;
   f.orb_features = config.get_int("frontend.orb_features", f.orb_features, 50, 20000);
   f.same_camera_window = config.get_int("frontend.same_camera_window", f.same_camera_window, 1, 100);

@@ -564,8 +564,10 @@ ceres::Solver::Summary solve_tracking_graph(FactorGraph& graph, const TrackingOp
   solver_options.minimizer_type = ceres::TRUST_REGION;
   solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   solver_options.max_num_iterations = options.max_iterations;
-  solver_options.num_threads =
-      options.threads > 0 ? options.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+  // track.solver_threads (tracking.h): one by default, which makes the solve bit-identical for any
+  // `threads`; 0 follows `threads`.
+  const int threads = options.threads > 0 ? options.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+  solver_options.num_threads = options.solver_threads > 0 ? options.solver_threads : threads;
   solver_options.function_tolerance = options.function_tolerance;
   // track.initial_trust_region_radius (tracking.h): automatic = nearly Gauss-Newton from the start when
   // Eq. 2 ties the frames to the rotation model, Ceres' default for bundle adjustment alone.

@@ -153,6 +153,11 @@ struct TrackingOptions {
   // "automatic": Ceres' own independent set (recon/tracking/README.md, "Solver speed").
   std::string schur_ordering = "landmarks";
   int threads = 0;                             // threads (0 = all cores)
+  // track.solver_threads: Ceres' threads for the solve (0 = `threads`). One by default: Ceres'
+  // multi-threaded reductions reorder floating-point sums, so runs with the same thread count
+  // differed in the last bits; with one the trajectory is bit for bit the same for any `threads`,
+  // and on 2 cores the solve was faster too (recon/tracking/README.md, "Solver speed").
+  int solver_threads = 1;
   FrontendOptions frontend;                    // frontend.* keys
   TrackingVerifyOptions verify;                // track.verify.* keys
   // track.allow_unreliable: require_reliable_tracking warns instead of refusing (for inspection).
