@@ -18,6 +18,7 @@
 #include <tbb/parallel_for.h>
 
 #include "panoscan/core/error.h"
+#include "row_lanes.h"
 
 namespace panoscan {
 
@@ -447,27 +448,8 @@ class PacketRow {
   float row_term_[3] = {0.f, 0.f, 0.f};
 };
 
-// One row between the intersection and the shading passes, structure of arrays padded to whole
-// packets, so that the shading passes run four pixels per SSE operation.
-struct RowScratch {
-  explicit RowScratch(int padded_width) {
-    const std::size_t n = std::size_t(padded_width);
-    for (std::vector<float>* plane :
-         {&t, &u, &v, &dir_x, &dir_y, &dir_z, &normal_x, &normal_y, &normal_z, &point_x, &point_y, &point_z, &footprint,
-          &incidence, &depth, &albedo_r, &albedo_g, &albedo_b, &diffuse})
-      plane->resize(n);
-    triangle.resize(n);
-    hit.resize(n);
-    rgb.resize(3 * n);
-  }
-  std::vector<float> t, u, v, dir_x, dir_y, dir_z;
-  std::vector<unsigned> triangle;  // RTC_INVALID_GEOMETRY_ID: no hit
-  std::vector<std::int32_t> hit;   // all ones for a hit, 0 for none: an SSE mask
-  // The triangle's normal turned towards the ray, the hit point, and the pixel's footprint.
-  std::vector<float> normal_x, normal_y, normal_z, point_x, point_y, point_z, footprint, incidence, depth;
-  std::vector<float> albedo_r, albedo_g, albedo_b, diffuse;
-  std::vector<std::int32_t> rgb;  // three planes of the row's 8-bit colour
-};
+using render_rows::LightArrays;
+using render_rows::RowScratch;
 
 std::int64_t now_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
@@ -491,41 +473,6 @@ bool cpu_has_avx() {
 bool cpu_has_avx2() {
   static const bool has = __builtin_cpu_supports("avx2");
   return has;
-}
-
-// row_geometry with eight pixels per AVX operation (the same per-lane operations, no FMA, so the
-// same values): its two divisions and two square roots per pixel bound it, and an 8-lane one costs
-// about what a 4-lane one does here.
-__attribute__((target("avx"))) void row_geometry_avx(RowScratch& row, int padded_width, const Eigen::Vector3f& origin,
-                                                     float inv_fx) {
-  const __m256 sign_bit = _mm256_set1_ps(-0.f);
-  const __m256 origin_x = _mm256_set1_ps(origin.x()), origin_y = _mm256_set1_ps(origin.y()),
-               origin_z = _mm256_set1_ps(origin.z());
-  for (int x = 0; x < padded_width; x += 8) {
-    const __m256 t = _mm256_loadu_ps(&row.t[x]);
-    const __m256 dx = _mm256_loadu_ps(&row.dir_x[x]), dy = _mm256_loadu_ps(&row.dir_y[x]),
-                 dz = _mm256_loadu_ps(&row.dir_z[x]);
-    const __m256 nx = _mm256_loadu_ps(&row.normal_x[x]), ny = _mm256_loadu_ps(&row.normal_y[x]),
-                 nz = _mm256_loadu_ps(&row.normal_z[x]);
-    const __m256 hit = _mm256_castsi256_ps(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&row.hit[x])));
-    const __m256 length = _mm256_sqrt_ps(
-        _mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_add_ps(_mm256_mul_ps(dy, dy), _mm256_mul_ps(dz, dz))));
-    const __m256 dot =
-        _mm256_add_ps(_mm256_mul_ps(nx, dx), _mm256_add_ps(_mm256_mul_ps(ny, dy), _mm256_mul_ps(nz, dz)));
-    const __m256 incidence = _mm256_div_ps(_mm256_andnot_ps(sign_bit, dot), length);
-    const __m256 footprint = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(t, length), _mm256_set1_ps(inv_fx)),
-                                           _mm256_sqrt_ps(_mm256_max_ps(incidence, _mm256_set1_ps(0.05f))));
-    const __m256 flip = _mm256_and_ps(_mm256_cmp_ps(dot, _mm256_setzero_ps(), _CMP_GT_OQ), sign_bit);
-    _mm256_storeu_ps(&row.normal_x[x], _mm256_xor_ps(nx, flip));
-    _mm256_storeu_ps(&row.normal_y[x], _mm256_xor_ps(ny, flip));
-    _mm256_storeu_ps(&row.normal_z[x], _mm256_xor_ps(nz, flip));
-    _mm256_storeu_ps(&row.point_x[x], _mm256_add_ps(origin_x, _mm256_mul_ps(t, dx)));
-    _mm256_storeu_ps(&row.point_y[x], _mm256_add_ps(origin_y, _mm256_mul_ps(t, dy)));
-    _mm256_storeu_ps(&row.point_z[x], _mm256_add_ps(origin_z, _mm256_mul_ps(t, dz)));
-    _mm256_storeu_ps(&row.footprint[x], footprint);
-    _mm256_storeu_ps(&row.incidence[x], _mm256_and_ps(incidence, hit));
-    _mm256_storeu_ps(&row.depth[x], _mm256_and_ps(t, hit));
-  }
 }
 
 // The hit triangles' unit normals (`normals`: x, y, z per triangle), +z for a miss, eight pixels
@@ -555,153 +502,35 @@ __attribute__((target("avx2"))) void row_normals_avx2(RowScratch& row, int padde
 }
 #endif
 
-// The per-pixel geometry of a traced row, four pixels per SSE operation where the CPU has SSE2:
-// incidence, footprint, hit point and the normal turned towards the ray, each the same float
-// operations in the same order as Renderer::Impl::shade's callers compute them for one pixel.
+// The per-pixel geometry of a traced row (row_lanes.h), eight pixels per AVX operation where the CPU
+// has AVX, else four per SSE operation.
 void row_geometry(RowScratch& row, int padded_width, const Eigen::Vector3f& origin, float inv_fx) {
-#if PANOSCAN_RENDER_AVX
+#if PANOSCAN_ROW_LANES_AVX
   if (padded_width % 8 == 0 && cpu_has_avx()) {
-    row_geometry_avx(row, padded_width, origin, inv_fx);
+    render_rows::row_geometry_avx(row, padded_width, origin, inv_fx);
     return;
   }
 #endif
 #if defined(__SSE2__)
-  const __m128 sign_bit = _mm_set1_ps(-0.f);
-  const __m128 origin_x = _mm_set1_ps(origin.x()), origin_y = _mm_set1_ps(origin.y()),
-               origin_z = _mm_set1_ps(origin.z());
-  for (int x = 0; x < padded_width; x += 4) {
-    const __m128 t = _mm_loadu_ps(&row.t[x]);
-    const __m128 dx = _mm_loadu_ps(&row.dir_x[x]), dy = _mm_loadu_ps(&row.dir_y[x]), dz = _mm_loadu_ps(&row.dir_z[x]);
-    const __m128 nx = _mm_loadu_ps(&row.normal_x[x]), ny = _mm_loadu_ps(&row.normal_y[x]),
-                 nz = _mm_loadu_ps(&row.normal_z[x]);
-    const __m128 hit = _mm_castsi128_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(&row.hit[x])));
-    // |d| and n.d as Eigen's norm() and dot() sum: x + (y + z).
-    const __m128 length =
-        _mm_sqrt_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_add_ps(_mm_mul_ps(dy, dy), _mm_mul_ps(dz, dz))));
-    const __m128 dot = _mm_add_ps(_mm_mul_ps(nx, dx), _mm_add_ps(_mm_mul_ps(ny, dy), _mm_mul_ps(nz, dz)));
-    const __m128 incidence = _mm_div_ps(_mm_andnot_ps(sign_bit, dot), length);
-    // A pixel covers range / f metres across the ray, stretched by 1 / cos along the slope;
-    // the geometric mean of the two keeps slanted floors sharp without aliasing.
-    const __m128 footprint = _mm_div_ps(_mm_mul_ps(_mm_mul_ps(t, length), _mm_set1_ps(inv_fx)),
-                                        _mm_sqrt_ps(_mm_max_ps(incidence, _mm_set1_ps(0.05f))));
-    const __m128 flip = _mm_and_ps(_mm_cmpgt_ps(dot, _mm_setzero_ps()), sign_bit);
-    _mm_storeu_ps(&row.normal_x[x], _mm_xor_ps(nx, flip));
-    _mm_storeu_ps(&row.normal_y[x], _mm_xor_ps(ny, flip));
-    _mm_storeu_ps(&row.normal_z[x], _mm_xor_ps(nz, flip));
-    _mm_storeu_ps(&row.point_x[x], _mm_add_ps(origin_x, _mm_mul_ps(t, dx)));
-    _mm_storeu_ps(&row.point_y[x], _mm_add_ps(origin_y, _mm_mul_ps(t, dy)));
-    _mm_storeu_ps(&row.point_z[x], _mm_add_ps(origin_z, _mm_mul_ps(t, dz)));
-    _mm_storeu_ps(&row.footprint[x], footprint);
-    _mm_storeu_ps(&row.incidence[x], _mm_and_ps(incidence, hit));
-    _mm_storeu_ps(&row.depth[x], _mm_and_ps(t, hit));
-  }
+  render_rows::row_geometry_lanes<render_rows::SseLanes>(row, padded_width, origin, inv_fx);
 #else
-  for (int x = 0; x < padded_width; ++x) {
-    const Eigen::Vector3f direction(row.dir_x[x], row.dir_y[x], row.dir_z[x]);
-    const Eigen::Vector3f normal(row.normal_x[x], row.normal_y[x], row.normal_z[x]);
-    const float t = row.t[x];
-    const float length = direction.norm();
-    const float dot = normal.dot(direction);
-    const float incidence = std::abs(dot) / length;
-    row.footprint[x] = t * length * inv_fx / std::sqrt(std::max(incidence, 0.05f));
-    const Eigen::Vector3f facing = dot > 0.f ? Eigen::Vector3f(-normal) : normal;
-    row.normal_x[x] = facing.x();
-    row.normal_y[x] = facing.y();
-    row.normal_z[x] = facing.z();
-    row.point_x[x] = origin.x() + t * direction.x();
-    row.point_y[x] = origin.y() + t * direction.y();
-    row.point_z[x] = origin.z() + t * direction.z();
-    row.incidence[x] = row.hit[x] ? incidence : 0.f;
-    row.depth[x] = row.hit[x] ? t : 0.f;
-  }
+  render_rows::row_geometry_lanes<render_rows::ScalarLanes>(row, padded_width, origin, inv_fx);
 #endif
 }
 
-#if PANOSCAN_RENDER_AVX
-// row_diffuse with eight pixels per AVX operation, for CPUs that have AVX (checked at run time): the
-// same per-lane operations (no FMA), so the same values; the divisions and square roots, whose
-// throughput bounds this loop, take half the instructions.
-__attribute__((target("avx"))) void row_diffuse_avx(RowScratch& row, int padded_width,
-                                                    const std::vector<float>& light_x,
-                                                    const std::vector<float>& light_y,
-                                                    const std::vector<float>& light_z,
-                                                    const std::vector<float>& light_intensity, std::size_t lights) {
-  const __m256 light_count = _mm256_set1_ps(float(lights));
-  for (int x = 0; x < padded_width; x += 8) {
-    const __m256 px = _mm256_loadu_ps(&row.point_x[x]), py = _mm256_loadu_ps(&row.point_y[x]),
-                 pz = _mm256_loadu_ps(&row.point_z[x]);
-    const __m256 nx = _mm256_loadu_ps(&row.normal_x[x]), ny = _mm256_loadu_ps(&row.normal_y[x]),
-                 nz = _mm256_loadu_ps(&row.normal_z[x]);
-    __m256 diffuse = _mm256_setzero_ps();
-    for (std::size_t l = 0; l < lights; ++l) {
-      const __m256 tx = _mm256_sub_ps(_mm256_set1_ps(light_x[l]), px);
-      const __m256 ty = _mm256_sub_ps(_mm256_set1_ps(light_y[l]), py);
-      const __m256 tz = _mm256_sub_ps(_mm256_set1_ps(light_z[l]), pz);
-      const __m256 facing =
-          _mm256_add_ps(_mm256_mul_ps(nx, tx), _mm256_add_ps(_mm256_mul_ps(ny, ty), _mm256_mul_ps(nz, tz)));
-      const __m256 d2 = _mm256_max_ps(
-          _mm256_add_ps(_mm256_mul_ps(tx, tx), _mm256_add_ps(_mm256_mul_ps(ty, ty), _mm256_mul_ps(tz, tz))),
-          _mm256_set1_ps(1e-8f));
-      const __m256 numerator =
-          _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(light_intensity[l]), facing), _mm256_set1_ps(2.f));
-      const __m256 denominator = _mm256_mul_ps(
-          _mm256_sqrt_ps(d2), _mm256_add_ps(_mm256_set1_ps(1.f), _mm256_mul_ps(_mm256_set1_ps(0.25f), d2)));
-      const __m256 value = _mm256_div_ps(numerator, denominator);
-      diffuse = _mm256_add_ps(diffuse, _mm256_and_ps(value, _mm256_cmp_ps(facing, _mm256_setzero_ps(), _CMP_GT_OQ)));
-    }
-    _mm256_storeu_ps(&row.diffuse[x], _mm256_min_ps(_mm256_div_ps(diffuse, light_count), _mm256_set1_ps(1.2f)));
-  }
-}
-#endif
-
-// Lambert from the point lights, four pixels per SSE operation: per lane the float operations of
-// Renderer::Impl::shade's light loop, lights summed in the same order.
-void row_diffuse(RowScratch& row, int padded_width, const std::vector<float>& light_x,
-                 const std::vector<float>& light_y, const std::vector<float>& light_z,
-                 const std::vector<float>& light_intensity, std::size_t lights) {
-  const float light_count = float(lights);
-#if PANOSCAN_RENDER_AVX
+// Lambert from the point lights (row_lanes.h), eight pixels per AVX operation where the CPU has AVX,
+// else four per SSE operation.
+void row_diffuse(RowScratch& row, int padded_width, const LightArrays& lights) {
+#if PANOSCAN_ROW_LANES_AVX
   if (padded_width % 8 == 0 && cpu_has_avx()) {
-    row_diffuse_avx(row, padded_width, light_x, light_y, light_z, light_intensity, lights);
+    render_rows::row_diffuse_avx(row, padded_width, lights);
     return;
   }
 #endif
 #if defined(__SSE2__)
-  for (int x = 0; x < padded_width; x += 4) {
-    const __m128 px = _mm_loadu_ps(&row.point_x[x]), py = _mm_loadu_ps(&row.point_y[x]),
-                 pz = _mm_loadu_ps(&row.point_z[x]);
-    const __m128 nx = _mm_loadu_ps(&row.normal_x[x]), ny = _mm_loadu_ps(&row.normal_y[x]),
-                 nz = _mm_loadu_ps(&row.normal_z[x]);
-    __m128 diffuse = _mm_setzero_ps();
-    for (std::size_t l = 0; l < lights; ++l) {
-      const __m128 tx = _mm_sub_ps(_mm_set1_ps(light_x[l]), px);
-      const __m128 ty = _mm_sub_ps(_mm_set1_ps(light_y[l]), py);
-      const __m128 tz = _mm_sub_ps(_mm_set1_ps(light_z[l]), pz);
-      const __m128 facing = _mm_add_ps(_mm_mul_ps(nx, tx), _mm_add_ps(_mm_mul_ps(ny, ty), _mm_mul_ps(nz, tz)));
-      const __m128 d2 = _mm_max_ps(_mm_add_ps(_mm_mul_ps(tx, tx), _mm_add_ps(_mm_mul_ps(ty, ty), _mm_mul_ps(tz, tz))),
-                                   _mm_set1_ps(1e-8f));
-      const __m128 numerator = _mm_mul_ps(_mm_mul_ps(_mm_set1_ps(light_intensity[l]), facing), _mm_set1_ps(2.f));
-      const __m128 denominator =
-          _mm_mul_ps(_mm_sqrt_ps(d2), _mm_add_ps(_mm_set1_ps(1.f), _mm_mul_ps(_mm_set1_ps(0.25f), d2)));
-      const __m128 value = _mm_div_ps(numerator, denominator);
-      diffuse = _mm_add_ps(diffuse, _mm_and_ps(value, _mm_cmpgt_ps(facing, _mm_setzero_ps())));
-    }
-    _mm_storeu_ps(&row.diffuse[x], _mm_min_ps(_mm_div_ps(diffuse, _mm_set1_ps(light_count)), _mm_set1_ps(1.2f)));
-  }
+  render_rows::row_diffuse_lanes<render_rows::SseLanes>(row, padded_width, lights);
 #else
-  for (int x = 0; x < padded_width; ++x) {
-    float diffuse = 0.f;
-    for (std::size_t l = 0; l < lights; ++l) {
-      const float tx = light_x[l] - row.point_x[x];
-      const float ty = light_y[l] - row.point_y[x];
-      const float tz = light_z[l] - row.point_z[x];
-      const float facing = row.normal_x[x] * tx + (row.normal_y[x] * ty + row.normal_z[x] * tz);
-      const float d2 = std::max(tx * tx + (ty * ty + tz * tz), 1e-8f);
-      const float value = light_intensity[l] * facing * 2.f / (std::sqrt(d2) * (1.f + 0.25f * d2));
-      diffuse += facing > 0.f ? value : 0.f;
-    }
-    row.diffuse[x] = std::min(diffuse / light_count, 1.2f);
-  }
+  render_rows::row_diffuse_lanes<render_rows::ScalarLanes>(row, padded_width, lights);
 #endif
 }
 
@@ -1001,8 +830,8 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
       }
     }
     if (!scene.lights.empty()) {
-      row_diffuse(row, padded_width, impl.light_x, impl.light_y, impl.light_z, impl.light_intensity,
-                  scene.lights.size());
+      row_diffuse(row, padded_width,
+                  LightArrays{impl.light_x, impl.light_y, impl.light_z, impl.light_intensity, scene.lights.size()});
     } else {
       for (int x = 0; x < padded_width; ++x) {
         // Headlight fallback, as shade computes it.
