@@ -50,7 +50,6 @@ struct RowModel {
   const float* inverse_depth;  // the whole image
   const std::uint8_t* speckle_hole;
   const double* shift;  // per pixel x then y
-
   const double* disparity_noise;
   const double* speckle_noise;
   float* noisy_row;
@@ -163,7 +162,7 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
   // range): such a pixel invalidates every lookup that touches it. Computed once per frame so
   // that the per-pixel lookup needs no division. The float quotient is the double one rounded to
   // float (double carries more than twice float's precision), and unlike it vectorises.
-  // Rows in parallel: done before the model, whose lookups reach into neighbouring rows, it was a
+  // Computed rows in parallel, before the model (whose lookups reach into neighbouring rows); it was a
   // serial pass between two parallel ones.
   ImageF32 inverse_depth(width, height, 1, 0.0f);
   const double min_depth = options.min_depth_m, max_depth = options.max_depth_m;
