@@ -1,4 +1,5 @@
 #include "panoscan/core/camera.h"
+#include "panoscan/core/cpu_features.h"
 
 #include <algorithm>
 #include <cmath>
@@ -55,8 +56,7 @@ void Equirectangular::pixels(std::size_t n, const double* x, const double* y, co
   const double w = double(width()), h = double(height);
   std::size_t done = 0;
 #if defined(PANOSCAN_EQUIRECTANGULAR_AVX)
-  static const bool has_avx = __builtin_cpu_supports("avx");
-  if (has_avx) {
+  if (cpu::has_avx()) {
     done = n / 4 * 4;
     detail::equirectangular_pixels_avx(done, x, y, z, w, h, u, v);
   }

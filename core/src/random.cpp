@@ -1,4 +1,5 @@
 #include "panoscan/core/random.h"
+#include "panoscan/core/cpu_features.h"
 
 #include <algorithm>
 #include <cmath>
@@ -95,10 +96,6 @@ namespace panoscan {
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 namespace {
 
-bool cpu_has_avx512dq() {
-  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq");
-  return has;
-}
 
 // Rows r of the 8 x 8 doubles in `rows` become columns.
 __attribute__((target("avx512f,avx512dq"))) inline void transpose8(__m512d rows[8]) {
@@ -201,7 +198,7 @@ __attribute__((target("avx512f,avx512dq"))) std::size_t draw_normals_lanes(Rando
 void draw_normals(RandomStream* streams, std::size_t count, std::size_t n, double scale, double* const* out) {
   std::size_t first = 0;  // the first stream the scalar loop below draws from
 #if PANOSCAN_RANDOM_AVX512
-  if (cpu_has_avx512dq() && count >= 8) {
+  if (cpu::has_avx512dq() && count >= 8) {
     std::size_t drawn = 0;
     for (; first + 8 <= count; first += 8) {
       drawn = draw_normals_lanes(streams + first, n, scale, out + first);

@@ -61,6 +61,7 @@
 #endif
 
 #include "panoscan/core/atomic_output.h"
+#include "panoscan/core/cpu_features.h"
 #include "panoscan/core/pose_json.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/json_file.h"
@@ -549,10 +550,6 @@ __attribute__((target("avx2"))) std::size_t depth_units_avx2(const float* depth,
   return end;
 }
 
-bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
-}
 
 }  // namespace
 #endif
@@ -563,7 +560,7 @@ ImageU16 depth_to_png_units(const ImageF32& depth_m, double depth_scale) {
   ImageU16 units(depth_m.width, depth_m.height, 1, 0);
   std::size_t first = 0;
 #if PANOSCAN_DEPTH_UNITS_AVX2
-  if (cpu_has_avx2())
+  if (cpu::has_avx2())
     first = depth_units_avx2(depth_m.data.data(), depth_m.data.size(), depth_scale, units.data.data());
 #endif
   for (std::size_t i = first; i < depth_m.data.size(); ++i) {

@@ -14,6 +14,7 @@
 
 #include "panoscan/core/geometry.h"
 #include "panoscan/core/random.h"
+#include "panoscan/core/cpu_features.h"
 
 namespace panoscan {
 
@@ -125,10 +126,6 @@ __attribute__((target("avx2"))) int handa_row_avx2(const RowModel& m) {
   return end;
 }
 
-bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
-}
 #endif
 
 }  // namespace
@@ -185,7 +182,7 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
 
   const double shift_std = options.shift_std_px;
 #if PANOSCAN_NOISE_AVX2
-  const bool use_avx2 = cpu_has_avx2() && !input.scalar_only;
+  const bool use_avx2 = cpu::has_avx2() && !input.scalar_only;
 #endif
   const double ir_dropout = options.ir_dropout, ir_disparity_std = options.ir_disparity_std;
   // Rows are drawn and modelled in blocks of kRowBlock: a block's variates are drawn first, eight

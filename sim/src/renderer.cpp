@@ -18,6 +18,7 @@
 #include <tbb/parallel_for.h>
 
 #include "panoscan/core/error.h"
+#include "panoscan/core/cpu_features.h"
 #include "row_lanes.h"
 
 namespace panoscan {
@@ -462,18 +463,9 @@ namespace {
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #define PANOSCAN_RENDER_AVX 1
-bool cpu_has_avx() {
-  static const bool has = __builtin_cpu_supports("avx");
-  return has;
-}
-
 #endif
 
 #if PANOSCAN_RENDER_AVX
-bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
-}
 
 // The hit triangles' unit normals (`normals`: x, y, z per triangle), +z for a miss, eight pixels
 // per AVX2 gather, or one load where the eight share a triangle.
@@ -506,7 +498,7 @@ __attribute__((target("avx2"))) void row_normals_avx2(RowScratch& row, int padde
 // has AVX, else four per SSE operation.
 void row_geometry(RowScratch& row, int padded_width, const Eigen::Vector3f& origin, float inv_fx) {
 #if PANOSCAN_ROW_LANES_AVX
-  if (padded_width % 8 == 0 && cpu_has_avx()) {
+  if (padded_width % 8 == 0 && cpu::has_avx()) {
     render_rows::row_geometry_avx(row, padded_width, origin, inv_fx);
     return;
   }
@@ -522,7 +514,7 @@ void row_geometry(RowScratch& row, int padded_width, const Eigen::Vector3f& orig
 // else four per SSE operation.
 void row_diffuse(RowScratch& row, int padded_width, const LightArrays& lights) {
 #if PANOSCAN_ROW_LANES_AVX
-  if (padded_width % 8 == 0 && cpu_has_avx()) {
+  if (padded_width % 8 == 0 && cpu::has_avx()) {
     render_rows::row_diffuse_avx(row, padded_width, lights);
     return;
   }
@@ -730,7 +722,7 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
   // textures each stay in cache for a whole pass, and the two can be timed apart.
   RowScratch row(padded_width);
 #if PANOSCAN_RENDER_AVX
-  const bool use_avx2 = cpu_has_avx2() && !impl.triangle_normals.empty();
+  const bool use_avx2 = cpu::has_avx2() && !impl.triangle_normals.empty();
   std::optional<AlbedoLanes> albedo_lanes;
   if (!impl.triangle_texture.empty() && use_avx2)
     albedo_lanes = AlbedoLanes{impl.triangle_texture.data(),

@@ -18,6 +18,7 @@
 #include "depth_terms.h"
 #include "ray_table.h"
 #include "panoscan/core/allocator.h"
+#include "panoscan/core/cpu_features.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
 #include "panoscan/recon/panorama.h"
@@ -138,8 +139,7 @@ struct DepthProblem {
   const std::size_t group_size = data_term_quads() ? 4 : 2;
   static bool data_term_quads() {
 #if defined(PANOSCAN_DEPTH_TERMS_AVX)
-    static const bool has_avx = __builtin_cpu_supports("avx");
-    return has_avx;
+    return cpu::has_avx();
 #else
     return false;
 #endif
