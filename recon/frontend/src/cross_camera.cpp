@@ -360,6 +360,8 @@ BandCrop make_band_crop(const RgbdFrame& frame, const Relation& relation, bool c
     crop.patches.push_back({corner, z});
     crop.templates.insert(crop.templates.end(), templ.begin(), templ.end());
   }
+  crop.gray = ImageF32();
+  crop.depth = ImageF32();
   return crop;
 }
 

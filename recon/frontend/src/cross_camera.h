@@ -56,6 +56,9 @@ std::vector<Relation> overlapping_relations(const ScanIndex& scan, const std::ve
 // relation's region, and its corners (local maxima of the minimum eigenvalue, strongest first).
 struct BandCrop {
   PixelRect roi;
+  // Only camera b's crop keeps its pixels: a's are read once, for its patches' templates and depths.
+  // The front end holds a crop of every frame until the cross-camera matching (a full 640x480 scan:
+  // 2880 frames), and a's pixels were half of the crops' memory.
   ImageF32 gray, depth;
   std::vector<Pixel> corners;  // in full-image pixels; only for the relation's camera a
   // Camera a's corners that make a usable patch (inside the crop, with depth, contrast and texture
@@ -70,7 +73,7 @@ struct BandCrop {
   std::vector<float> templates;  // patches.size() x patch_pixels, row by row
   int patch_pixels = 0;
 };
-// camera_a: the crop of the relation's camera a (corners and patch templates) or b (pixels only).
+// camera_a: the crop of the relation's camera a (corners and patch templates, no pixels) or b (pixels only).
 BandCrop make_band_crop(const RgbdFrame& frame, const Relation& relation, bool camera_a,
                         const FrontendOptions& options);
 
