@@ -14,7 +14,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
-#include "panoscan/core/allocator.h"
+#include "panoscan/core/process.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
@@ -52,15 +52,7 @@ void add_sim_options(CLI::App* cmd, SimArguments& a, bool with_scene) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // Open3D's OpenMP threads spin while idle and starve oneTBB's on 2 cores (measured ~40x slower
-  // TSDF integration, 7x slower RGB-D odometry). libgomp reads OMP_WAIT_POLICY when it is loaded,
-  // before main, so setting it here is too late: set it and re-execute once (a user's own
-  // setting is kept). If the re-execution fails, carry on with the spinning policy.
-  if (std::getenv("OMP_WAIT_POLICY") == nullptr) {
-    ::setenv("OMP_WAIT_POLICY", "PASSIVE", 0);
-    ::execv("/proc/self/exe", argv);
-  }
-  keep_freed_memory_for_reuse();  // core/allocator.h: frame-sized blocks are reused, not refaulted
+  set_up_process(argv);  // core/process.h: OpenMP's wait policy, the heap's huge pages, the allocator
   CLI::App app{"PanoScan: panoramic RGB-D scanning testbed (Yang et al., TOG 2020)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "panoscan " + project_version() + " (" + source_revision() + ")");
@@ -340,6 +332,9 @@ int main(int argc, char** argv) {
   }
   if (verbose) set_log_level(LogLevel::kDebug);
   if (quiet) set_log_level(LogLevel::kWarn);
+  const auto environment = [](const char* name) { return std::getenv(name) ? std::getenv(name) : "(unset)"; };
+  log_debug(fmt::format("process settings (core/process.h): OMP_WAIT_POLICY={} GLIBC_TUNABLES={}",
+                        environment("OMP_WAIT_POLICY"), environment("GLIBC_TUNABLES")));
 
   try {
     if (*scene_list) {

@@ -8,6 +8,7 @@
 
 #include "cli_util.h"
 #include "panoscan/core/json_file.h"
+#include "panoscan/core/process.h"
 #include "panoscan/core/version.h"
 #include "test_util.h"
 
@@ -39,6 +40,28 @@ TEST(Cli, VersionNamesTheSourceRevision) {
   const RunResult r = run("--version");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(r.output, "panoscan " + panoscan::project_version() + " (" + panoscan::source_revision() + ")\n");
+}
+
+TEST(Cli, ReexecutesWithTheSettingsReadAtStartUpAndKeepsTheUsers) {
+  // core/process.h: the program runs with OpenMP's passive wait and glibc's huge-page heap; the
+  // debug log names what the running process got.
+  const std::string tunables = panoscan::huge_page_heap_supported() ? "glibc.malloc.hugetlb=1" : "(unset)";
+  RunResult r = panoscan::testutil::run_panoscan("-v scene list", "-u OMP_WAIT_POLICY -u GLIBC_TUNABLES");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("OMP_WAIT_POLICY=PASSIVE GLIBC_TUNABLES=" + tunables + "\n"), std::string::npos) << r.output;
+  // Other tunables are kept, the huge pages added to them.
+  r = panoscan::testutil::run_panoscan("-v scene list",
+                                       "OMP_WAIT_POLICY=ACTIVE GLIBC_TUNABLES=glibc.malloc.arena_max=4");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  const std::string with_others = panoscan::huge_page_heap_supported()
+                                      ? "glibc.malloc.arena_max=4:glibc.malloc.hugetlb=1"
+                                      : "glibc.malloc.arena_max=4";
+  EXPECT_NE(r.output.find("OMP_WAIT_POLICY=ACTIVE GLIBC_TUNABLES=" + with_others + "\n"), std::string::npos)
+      << r.output;
+  // A user's own hugetlb setting (here: off) is left alone.
+  r = panoscan::testutil::run_panoscan("-v scene list", "GLIBC_TUNABLES=glibc.malloc.hugetlb=0");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("GLIBC_TUNABLES=glibc.malloc.hugetlb=0\n"), std::string::npos) << r.output;
 }
 
 TEST(Cli, BadInputExitsNonZeroNamingFileAndField) {

@@ -17,9 +17,11 @@ struct RunResult {
   std::string output;  // stdout and stderr
 };
 
-// Runs the program built beside the tests with `arguments` (shell words) and collects its output.
-inline RunResult run_panoscan(const std::string& arguments) {
-  const std::string command = std::string(PANOSCAN_BINARY_DIR) + "/app/panoscan " + arguments + " 2>&1";
+// Runs the program built beside the tests with `arguments` (shell words) and collects its output;
+// `environment`: NAME=value words set for the run.
+inline RunResult run_panoscan(const std::string& arguments, const std::string& environment = "") {
+  const std::string command = (environment.empty() ? "" : "env " + environment + " ") + PANOSCAN_BINARY_DIR +
+                              "/app/panoscan " + arguments + " 2>&1";
   RunResult result;
   FILE* pipe = popen(command.c_str(), "r");
   if (!pipe) {

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "panoscan/core/allocator.h"
+#include "panoscan/core/process.h"
 #include "panoscan/core/camera.h"
 #include "panoscan/core/geometry.h"
 #include "panoscan/core/random.h"
@@ -236,6 +237,19 @@ TEST(Allocator, GlibcAcceptsTheSettings) {
 #else
   GTEST_SKIP() << "not glibc";
 #endif
+}
+
+TEST(Process, HugePageHeapTunablesAddTheSettingOnceAndKeepTheUsers) {
+  EXPECT_EQ(huge_page_heap_tunables(nullptr), "glibc.malloc.hugetlb=1");
+  EXPECT_EQ(huge_page_heap_tunables(""), "glibc.malloc.hugetlb=1");
+  EXPECT_EQ(huge_page_heap_tunables("glibc.malloc.arena_max=2"), "glibc.malloc.arena_max=2:glibc.malloc.hugetlb=1");
+  // Already there (the re-executed process) or the user's own choice: nothing to change.
+  EXPECT_EQ(huge_page_heap_tunables("glibc.malloc.hugetlb=1"), "");
+  EXPECT_EQ(huge_page_heap_tunables("glibc.malloc.arena_max=2:glibc.malloc.hugetlb=0"), "");
+  EXPECT_EQ(huge_page_heap_tunables("glibc.malloc.hugetlb=2:glibc.malloc.arena_max=2"), "");
+  // Names are matched whole.
+  EXPECT_EQ(huge_page_heap_tunables("glibc.malloc.hugetlbx=1"), "glibc.malloc.hugetlbx=1:glibc.malloc.hugetlb=1");
+  EXPECT_EQ(huge_page_heap_tunables("x.glibc.malloc.hugetlb=0"), "x.glibc.malloc.hugetlb=0:glibc.malloc.hugetlb=1");
 }
 
 TEST(Allocator, DefaultInitAllocatorLeavesSizedElementsToTheirWriter) {
