@@ -29,9 +29,6 @@ using namespace panoscan;
 
 namespace {
 
-// Open3D's OpenMP threads spin while idle by default; passive waiting keeps the 2 cores for work.
-[[maybe_unused]] const bool kPassiveOpenMp = [] { return ::setenv("OMP_WAIT_POLICY", "PASSIVE", 0) == 0; }();
-
 int every() {
   const char* v = std::getenv("PANORAMA_BENCH_EVERY");
   return v ? std::max(1, std::atoi(v)) : 16;

@@ -49,6 +49,7 @@ TEST(Cli, ReexecutesWithTheSettingsReadAtStartUpAndKeepsTheUsers) {
   RunResult r = panoscan::testutil::run_panoscan("-v scene list", "-u OMP_WAIT_POLICY -u GLIBC_TUNABLES");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("OMP_WAIT_POLICY=PASSIVE GLIBC_TUNABLES=" + tunables + "\n"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("could not re-execute"), std::string::npos) << r.output;
   // Other tunables are kept, the huge pages added to them.
   r = panoscan::testutil::run_panoscan("-v scene list",
                                        "OMP_WAIT_POLICY=ACTIVE GLIBC_TUNABLES=glibc.malloc.arena_max=4");

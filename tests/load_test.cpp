@@ -78,9 +78,11 @@ TEST(Load, TwoTablesProcessesOnOneCacheEqualASingleRun) {
   EXPECT_TRUE(leftover_temporaries(tmp / "shared").empty());
   std::vector<std::string> shared = files_under(tmp / "shared"), own = files_under(tmp / "own");
   EXPECT_EQ(shared, own);
-  for (const std::string& file : own)
-    if (file.find("rig.json") != std::string::npos || file.find(".png") != std::string::npos)
+  for (const std::string& file : own) {
+    if (file.find("rig.json") != std::string::npos || file.find(".png") != std::string::npos) {
       EXPECT_EQ(file_bytes(tmp / "shared" / file), file_bytes(tmp / "own" / file)) << file;
+    }
+  }
 }
 
 TEST(Load, SimWithMoreThreadsThanCoresWritesTheSameScan) {

@@ -3,6 +3,7 @@
 #include <cstdlib>  // defines __GLIBC__ on glibc (through <features.h>)
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -15,6 +16,7 @@
 #endif
 
 #include "panoscan/core/allocator.h"
+#include "panoscan/core/log.h"
 
 namespace panoscan {
 
@@ -45,7 +47,23 @@ bool huge_page_heap_supported() {
 #endif
 }
 
+namespace {
+
+// Valgrind runs a program with its preload libraries (vgpreload_*.so) in LD_PRELOAD. There,
+// /proc/self/exe is valgrind's tool binary, which refuses to run on its own: re-executing would end
+// the run (and valgrind replaces the allocator anyway).
+bool under_valgrind() {
+  const char* preload = std::getenv("LD_PRELOAD");
+  return preload != nullptr && std::strstr(preload, "vgpreload") != nullptr;
+}
+
+}  // namespace
+
 void set_up_process(char** argv) {
+  if (under_valgrind()) {
+    keep_freed_memory_for_reuse();
+    return;
+  }
   bool reexecute = false;
   if (std::getenv("OMP_WAIT_POLICY") == nullptr) {
     ::setenv("OMP_WAIT_POLICY", "PASSIVE", 0);
@@ -59,7 +77,11 @@ void set_up_process(char** argv) {
     }
   }
   // Both are in the environment now, so the re-executed process does not come here again.
-  if (reexecute) ::execv("/proc/self/exe", argv);
+  if (reexecute) {
+    ::execv("/proc/self/exe", argv);
+    log_warn(std::string("could not re-execute /proc/self/exe (") + std::strerror(errno) +
+             "): running without the start-up settings of core/process.h");
+  }
   keep_freed_memory_for_reuse();
 }
 

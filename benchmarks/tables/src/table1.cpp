@@ -40,10 +40,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Open3D's loops use OpenMP, whose idle threads spin by default (40x slower integration on a
-// shared 2-core machine); passive waiting is set before the OpenMP runtime starts.
-[[maybe_unused]] const bool kPassiveOpenMp = [] { return ::setenv("OMP_WAIT_POLICY", "PASSIVE", 0) == 0; }();
-
 const char* const kOursTsdf = "Ours (TSDF)";
 const char* const kOursSurfels4 = "Ours (Surfels-4m)";
 const char* const kOursSurfels3 = "Ours (Surfels-3m)";

@@ -18,7 +18,8 @@ namespace panoscan {
 //    the 2-core VM): recon scene on the whole office took 2.0 million faults, and 62 thousand with
 //    huge pages (88 -> 69 s, peak memory 1.98 -> 1.94 GB, the same cloud bit for bit).
 // A user's own setting of either is kept. If the re-execution fails, the program carries on
-// without them. Then applies keep_freed_memory_for_reuse (allocator.h).
+// without them; under valgrind it is not tried (its /proc/self/exe is not the program). Then
+// applies keep_freed_memory_for_reuse (allocator.h).
 void set_up_process(char** argv);
 
 // The value GLIBC_TUNABLES needs for a huge-page heap, given its current value (nullptr = unset):
