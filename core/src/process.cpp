@@ -57,13 +57,9 @@ bool under_valgrind() {
   return preload != nullptr && std::strstr(preload, "vgpreload") != nullptr;
 }
 
-}  // namespace
-
-void set_up_process(char** argv) {
-  if (under_valgrind()) {
-    keep_freed_memory_for_reuse();
-    return;
-  }
+// Adds the start-up settings the environment lacks and re-executes; returns only if there was nothing
+// to add or the re-execution failed.
+void reexecute_with_start_up_settings(char** argv) {
   bool reexecute = false;
   if (std::getenv("OMP_WAIT_POLICY") == nullptr) {
     ::setenv("OMP_WAIT_POLICY", "PASSIVE", 0);
@@ -76,12 +72,17 @@ void set_up_process(char** argv) {
       reexecute = true;
     }
   }
+  if (!reexecute) return;
   // Both are in the environment now, so the re-executed process does not come here again.
-  if (reexecute) {
-    ::execv("/proc/self/exe", argv);
-    log_warn(std::string("could not re-execute /proc/self/exe (") + std::strerror(errno) +
-             "): running without the start-up settings of core/process.h");
-  }
+  ::execv("/proc/self/exe", argv);
+  log_warn(std::string("could not re-execute /proc/self/exe (") + std::strerror(errno) +
+           "): running without the start-up settings of core/process.h");
+}
+
+}  // namespace
+
+void set_up_process(char** argv) {
+  if (!under_valgrind()) reexecute_with_start_up_settings(argv);
   keep_freed_memory_for_reuse();
 }
 
