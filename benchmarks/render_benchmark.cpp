@@ -12,6 +12,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_reduce.h>
 
+#include "panoscan/core/random.h"
 #include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/simulator.h"
 #include "benchmark_main.h"
@@ -133,6 +134,28 @@ void BM_RaysRenderOnly(benchmark::State& state) {
       benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
 }
 
+// The depth noise's normal deviates as the simulator draws them (draw_normals over a block of eight
+// row streams, a 640-pixel row's shift draws each), on one thread: ns per deviate. The ziggurat's
+// rare path (2.8% of draws) is most of its cost.
+void BM_DrawNormals(benchmark::State& state) {
+  constexpr std::size_t kStreams = 8, kDraws = 1280;
+  std::vector<std::vector<double>> rows(kStreams, std::vector<double>(kDraws));
+  std::vector<double*> out;
+  for (auto& row : rows) out.push_back(row.data());
+  std::vector<RandomStream> streams;
+  std::int64_t frame = 0;
+  for (auto _ : state) {
+    streams.clear();
+    for (std::size_t s = 0; s < kStreams; ++s)
+      streams.emplace_back(1, 0, frame, RandomPurpose::kDepthShift, std::int64_t(s));
+    draw_normals(streams.data(), kStreams, kDraws, 0.5, out.data());
+    benchmark::DoNotOptimize(rows[kStreams - 1][kDraws - 1]);
+    ++frame;
+  }
+  state.counters["ns_per_deviate"] = benchmark::Counter(double(state.iterations()) * kStreams * kDraws * 1e-9,
+                                                        benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
 // One whole scanning position (3 x 990 frames at 640x480, default options) written to disk as
 // `panoscan sim` writes it: frames x pixels per second (the speed report's ratio against bare
 // Embree), the disk size, and the stage breakdown of SimStageTimes as counters (thread seconds;
@@ -192,6 +215,7 @@ BENCHMARK(BM_RaysBareEmbreePackets16)
     ->MeasureProcessCPUTime()
     ->UseRealTime();
 BENCHMARK(BM_RaysFullRender)->Unit(benchmark::kMillisecond)->MinTime(2.0)->MeasureProcessCPUTime()->UseRealTime();
+BENCHMARK(BM_DrawNormals)->MinTime(1.0);
 BENCHMARK(BM_RaysRenderOnly)->Unit(benchmark::kMillisecond)->MinTime(2.0)->MeasureProcessCPUTime()->UseRealTime();
 // Replaces BM_SimulateOnePosition (the same whole position, without the rate and the stages).
 BENCHMARK(BM_SimEndToEnd)->Arg(0)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();

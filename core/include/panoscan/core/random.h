@@ -96,11 +96,18 @@ class RandomStream {
 
  private:
   friend void draw_normals(RandomStream*, std::size_t, std::size_t, double, double* const*);
-  friend std::size_t draw_normals_lanes(RandomStream*, std::size_t, double, double* const*);
+  friend void draw_normals_lanes(RandomStream*, std::size_t, double, double* const*, std::size_t*);
   static std::uint64_t rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
   // The rest of normal() for a draw `bits` outside its layer's core: the tail or the wedge, and
   // further draws while they are rejected.
   double normal_outside_core(std::uint64_t bits);
+  // draw_normals' per-stream step: the normal() values of this stream's next `count` draws, already
+  // made (`bits`; `scaled_core`, each one's value times `scale` if it falls inside its layer's core;
+  // `outside`, bit i set where draw i does not), written to `out`. A draw outside its core goes
+  // through normal_outside_core, which takes its further draws from those that follow it, then from
+  // the stream (left just past the `count` draws). Returns how many values it wrote.
+  std::size_t normals_from_draws(const std::uint64_t* bits, const double* scaled_core, const std::uint64_t* outside,
+                                 std::size_t count, double scale, double* out);
 
   std::uint64_t state_[4];
   const detail::ZigguratTables* ziggurat_;
