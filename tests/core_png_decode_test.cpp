@@ -1,8 +1,9 @@
 // The libdeflate PNG decoder behind read_rgb / read_png16 against OpenCV's (libpng) on the layouts
 // it takes, written by libpng with its adaptive filters (all five filter types occur), and its
-// errors on corrupt files.
+// errors on corrupt files; and our encoder's files read by libpng.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <fstream>
 #include <random>
 
@@ -81,6 +82,34 @@ TEST(PngDecode, DepthMatchesOpenCv) {
     ASSERT_EQ(image.height, 33);
     for (int y = 0; y < 33; ++y)
       for (int x = 0; x < 80; ++x) ASSERT_EQ(image.row(y)[x], written.ptr<std::uint16_t>(y)[x]) << x << "," << y;
+  }
+}
+
+// The other way round: the files our encoder writes, read by libpng (through OpenCV), at the levels
+// with different compressors: 0 (stored), 1 (ISA-L's igzip, the simulator's default) and 6
+// (libdeflate). A 640x480 frame spans several deflate blocks.
+TEST(PngDecode, OurEncodedFilesReadByOpenCv) {
+  const cv::Mat colour = test_image(CV_8UC3, 640, 480, 11), depth = test_image(CV_16UC1, 640, 480, 12);
+  ImageU8 rgb(640, 480, 3);
+  ImageU16 depth16(640, 480, 1);
+  for (int y = 0; y < 480; ++y) {
+    std::memcpy(rgb.row(y), colour.ptr<std::uint8_t>(y), 640 * 3);
+    std::memcpy(depth16.row(y), depth.ptr<std::uint16_t>(y), 640 * 2);
+  }
+  for (int level : {0, 1, 6}) {
+    const std::string rgb_png = encode_png(rgb, level), depth_png = encode_png16(depth16, level);
+    const cv::Mat rgb_back =
+        cv::imdecode(cv::Mat(1, int(rgb_png.size()), CV_8UC1, const_cast<char*>(rgb_png.data())), cv::IMREAD_UNCHANGED);
+    const cv::Mat depth_back = cv::imdecode(
+        cv::Mat(1, int(depth_png.size()), CV_8UC1, const_cast<char*>(depth_png.data())), cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(rgb_back.type(), CV_8UC3) << "level " << level;
+    ASSERT_EQ(depth_back.type(), CV_16UC1) << "level " << level;
+    cv::Mat bgr(colour.size(), colour.type());  // OpenCV decodes to BGR; our image is RGB
+    const int swap_red_blue[] = {0, 2, 1, 1, 2, 0};
+    cv::mixChannels(&colour, 1, &bgr, 1, swap_red_blue, 3);
+    EXPECT_EQ(cv::norm(rgb_back, bgr, cv::NORM_INF), 0.0) << "level " << level;
+    EXPECT_EQ(cv::norm(depth_back, depth, cv::NORM_INF), 0.0) << "level " << level;
+    if (level > 0) EXPECT_LT(rgb_png.size(), rgb.data.size() / 2) << "level " << level << ": not compressed";
   }
 }
 
