@@ -90,13 +90,18 @@ std::unique_ptr<std::uint8_t[]> compress_zlib(const std::uint8_t* data, std::siz
                                               std::size_t& size_out) {
   if (compression == 1) {
     // igzip's level 1 needs its own work area (hash table and token buffer, 280 KB): one per thread,
-    // as frames encode in parallel.
+    // as frames encode in parallel, cleared for every image (15 us against about 1 ms of
+    // compression) so that nothing an earlier image left there can reach this one's matches.
     thread_local std::vector<std::uint8_t> level_buffer(ISAL_DEF_LVL1_DEFAULT);
+    std::fill(level_buffer.begin(), level_buffer.end(), std::uint8_t(0));
     // Stored blocks, the worst case, add 5 bytes per 64 KB; the rest is headers.
     const std::size_t capacity = size + size / 1024 + 4096;
     std::unique_ptr<std::uint8_t[]> out(new std::uint8_t[capacity]);
-    isal_zstream stream;
+    // Zeroed first: isal_deflate_stateless_init leaves fields unset that compression reads
+    // (hist_bits, the look-back limit), and garbage there made the bytes vary from run to run.
+    isal_zstream stream = {};
     isal_deflate_stateless_init(&stream);
+    stream.hist_bits = 0;  // the default, PNG's 32 KB window
     stream.level = 1;
     stream.level_buf = level_buffer.data();
     stream.level_buf_size = std::uint32_t(level_buffer.size());
@@ -136,7 +141,11 @@ std::string encode(const std::uint8_t* raw, int width, int height, int channels,
   // Not value-initialised: every byte is written below, and zeroing a frame's worth first was a
   // pass over memory per image.
   const std::size_t filtered_size = (row_bytes + 1) * height;
-  const std::unique_ptr<std::uint8_t[]> filtered(new std::uint8_t[filtered_size]);
+  // Plus 64 zero bytes: a vector loop that reads past the end of its input (igzip's hashing may)
+  // then reads the same bytes every time, never whatever the heap held there.
+  constexpr std::size_t kPadding = 64;
+  const std::unique_ptr<std::uint8_t[]> filtered(new std::uint8_t[filtered_size + kPadding]);
+  std::memset(filtered.get() + filtered_size, 0, kPadding);
   std::vector<std::uint8_t> zero_row(row_bytes, 0), candidate(row_bytes);
   for (int y = 0; y < height; ++y) {
     const std::uint8_t* row = raw + row_bytes * y;
