@@ -14,6 +14,7 @@
 
 #include "panoscan/core/random.h"
 #include "panoscan/scenes/scenes.h"
+#include "panoscan/sim/noise.h"
 #include "panoscan/sim/simulator.h"
 #include "benchmark_main.h"
 
@@ -120,17 +121,42 @@ void BM_RaysFullRender(benchmark::State& state) {
 }
 
 // The renderer alone (depth, colour, incidence, ids: rays and shading, no noise): the part of the
-// full render that Embree's rate bounds.
+// full render that Embree's rate bounds. `rays_stage_rays_per_cpu_s`: its ray stage alone (setting up
+// the 16-ray packets, intersecting them, copying the hits out) per second of its threads' time, to
+// set against bare Embree's packet loop per second of CPU time.
 void BM_RaysRenderOnly(benchmark::State& state) {
   const Simulator sim(office(), 0, full_size_options());
   const PinholeIntrinsics& k = sim.rig().intrinsics;
   const auto poses = view_poses(sim, 30);
   std::size_t view = 0;
+  RenderTimes times;
   for (auto _ : state) {
-    const RenderedView rendered = sim.renderer().render(poses[view++ % poses.size()], k);
+    const RenderedView rendered = sim.renderer().render(poses[view++ % poses.size()], k, RenderRequest{}, &times);
     benchmark::DoNotOptimize(rendered.depth.data.data());
   }
-  state.counters["rays_per_s"] =
+  const double pixels = double(state.iterations()) * k.width * k.height;
+  state.counters["rays_per_s"] = benchmark::Counter(pixels, benchmark::Counter::kIsRate);
+  state.counters["rays_stage_rays_per_cpu_s"] = pixels / (1e-9 * double(times.rays_ns.load()));
+  state.counters["shading_stage_share"] =
+      double(times.shading_ns.load()) / double(times.rays_ns.load() + times.shading_ns.load());
+}
+
+// The Handa depth noise alone on one rendered 640x480 view (its normal draws and the model; all
+// threads), a new frame index each time: process CPU ns per pixel in the "CPU" column's terms.
+void BM_DepthNoise(benchmark::State& state) {
+  const Simulator sim(office(), 0, full_size_options());
+  const PinholeIntrinsics& k = sim.rig().intrinsics;
+  const RenderedView view = sim.renderer().render(view_poses(sim, 1).front(), k);
+  DepthNoiseInput input;
+  input.clean_depth = &view.depth;
+  input.incidence_cos = &view.incidence_cos;
+  input.intrinsics = &k;
+  for (auto _ : state) {
+    const ImageF32 noisy = apply_depth_noise(input, sim.options().noise, sim.options().seed);
+    benchmark::DoNotOptimize(noisy.data.data());
+    ++input.frame;
+  }
+  state.counters["pixels_per_s"] =
       benchmark::Counter(double(state.iterations()) * k.width * k.height, benchmark::Counter::kIsRate);
 }
 
@@ -215,6 +241,7 @@ BENCHMARK(BM_RaysBareEmbreePackets16)
     ->MeasureProcessCPUTime()
     ->UseRealTime();
 BENCHMARK(BM_RaysFullRender)->Unit(benchmark::kMillisecond)->MinTime(2.0)->MeasureProcessCPUTime()->UseRealTime();
+BENCHMARK(BM_DepthNoise)->Unit(benchmark::kMillisecond)->MinTime(1.0)->MeasureProcessCPUTime()->UseRealTime();
 BENCHMARK(BM_DrawNormals)->MinTime(1.0);
 BENCHMARK(BM_RaysRenderOnly)->Unit(benchmark::kMillisecond)->MinTime(2.0)->MeasureProcessCPUTime()->UseRealTime();
 // Replaces BM_SimulateOnePosition (the same whole position, without the rate and the stages).

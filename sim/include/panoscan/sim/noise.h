@@ -29,9 +29,11 @@ struct DepthNoiseInput {
   // Rows near the top / bottom edge that overlap a neighbouring camera's projector (speckle).
   bool speckle_top = false;
   bool speckle_bottom = false;
-  // The Handa model runs four pixels per AVX2 operation where the CPU has AVX2, bit for bit the
-  // scalar loop's result; true forces the scalar loop (the reference the tests compare with).
-  bool scalar_only = false;
+  // The Handa model's kernel: eight pixels per AVX-512 operation where the CPU has AVX-512, else
+  // four per AVX2 operation, else the scalar loop; each bit for bit the scalar loop's result. The
+  // tests force each one to compare it with the scalar loop.
+  enum class Kernel { kFastest, kAvx2, kScalar };
+  Kernel kernel = Kernel::kFastest;
 };
 
 // Returns the noisy depth (metres, 0 = invalid). Deterministic in (seed, sensor, frame).
