@@ -13,14 +13,13 @@ build_dir="${1:-build}"
 # chromium: report_browser_test opens `panoscan report`'s page in headless Chromium (images loaded, tables there).
 # snakemake, slurm-wlm, munge: the workflow (workflow/Snakefile) and its Slurm test, which starts a one-node
 # cluster of its own (tests/cluster/run_cluster_test.sh).
-# libdeflate-dev: PNG encoding (core/src/png_encode.cpp), 3x faster than libpng + zlib; libisal-dev: the
-# same at the fastest level (the default), 2-3x faster again.
+# libdeflate-dev: PNG encoding (core/src/png_encode.cpp), 3x faster than libpng + zlib.
 # libopenblas0-pthread: the BLAS/LAPACK alternative for CHOLMOD in the tracking solve (2x faster than
 # ATLAS, which libceres-dev pulls in; see CMakeLists.txt).
 packages=(
   build-essential cmake ninja-build pkg-config git
   libeigen3-dev libembree-dev libopencv-dev libassimp-dev libopenexr-dev libtbb-dev
-  libcli11-dev nlohmann-json3-dev libyaml-cpp-dev libspdlog-dev libfmt-dev libdeflate-dev libisal-dev
+  libcli11-dev nlohmann-json3-dev libyaml-cpp-dev libspdlog-dev libfmt-dev libdeflate-dev
   libceres-dev libopen3d-dev libpcl-dev
   libopenblas0-pthread
   libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev

@@ -86,8 +86,8 @@ TEST(PngDecode, DepthMatchesOpenCv) {
 }
 
 // The other way round: the files our encoder writes, read by libpng (through OpenCV), at the levels
-// with different compressors: 0 (stored), 1 (ISA-L's igzip, the simulator's default) and 6
-// (libdeflate). A 640x480 frame spans several deflate blocks.
+// with different filtering: 0 (stored), 1 (the simulator's default: one fixed filter) and 6 (a filter
+// chosen per row). A 640x480 frame spans several deflate blocks.
 TEST(PngDecode, OurEncodedFilesReadByOpenCv) {
   const cv::Mat colour = test_image(CV_8UC3, 640, 480, 11), depth = test_image(CV_16UC1, 640, 480, 12);
   ImageU8 rgb(640, 480, 3);
@@ -109,7 +109,9 @@ TEST(PngDecode, OurEncodedFilesReadByOpenCv) {
     cv::mixChannels(&colour, 1, &bgr, 1, swap_red_blue, 3);
     EXPECT_EQ(cv::norm(rgb_back, bgr, cv::NORM_INF), 0.0) << "level " << level;
     EXPECT_EQ(cv::norm(depth_back, depth, cv::NORM_INF), 0.0) << "level " << level;
-    if (level > 0) EXPECT_LT(rgb_png.size(), rgb.data.size() / 2) << "level " << level << ": not compressed";
+    if (level > 0) {
+      EXPECT_LT(rgb_png.size(), rgb.data.size() / 2) << "level " << level << ": not compressed";
+    }
   }
 }
 

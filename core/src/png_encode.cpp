@@ -1,18 +1,14 @@
-// PNG encoding in memory with ISA-L (the fastest level) and libdeflate (docs/ARCHITECTURE.md §3.4 for
-// the images). Written here rather than through OpenCV/libpng because the simulator writes two PNGs
-// per frame and libpng + zlib were 28% of a sim run's CPU time: libpng's adaptive filter heuristic
-// tries every filter on every row, zlib is slower than libdeflate at the same level, and the file had
-// to be written by the encoding thread. Encoding to memory lets frames encode in parallel and be written in order
+// PNG encoding in memory with libdeflate (docs/ARCHITECTURE.md §3.4 for the images). Written here
+// rather than through OpenCV/libpng because the simulator writes two PNGs per frame and libpng +
+// zlib were 28% of a sim run's CPU time: libpng's adaptive filter heuristic tries every filter on
+// every row, zlib is slower than libdeflate at the same level, and the file had to be written by
+// the encoding thread. Encoding to memory lets frames encode in parallel and be written in order
 // (sim/README.md has the measurements).
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
-#include <limits>
 #include <memory>
 
-#include <vector>
-
-#include <isa-l/igzip_lib.h>
 #include <libdeflate.h>
 
 #include "panoscan/core/error.h"
@@ -80,56 +76,6 @@ std::size_t filtered_cost(const std::uint8_t* filtered, std::size_t n) {
   return sum;
 }
 
-// The zlib stream of `data` at `compression` (0..9); `size_out`: its length. Level 1, the
-// simulator's default, is ISA-L's igzip (its level 1): on simulated 640x480 frames it compresses 2-3x
-// faster than libdeflate's level 1 (RGB 920 against 340 MB/s, depth 620 against 300), for files 5%
-// (RGB) and 16% (depth) larger; encoding was a third of a sim run's thread time. The other levels
-// are libdeflate's (about 3x faster than zlib at the same level, smaller output; sim/README.md has
-// the measurements); level 0 is its "store". The pixels are the same whichever encodes them.
-std::unique_ptr<std::uint8_t[]> compress_zlib(const std::uint8_t* data, std::size_t size, int compression,
-                                              std::size_t& size_out) {
-  if (compression == 1) {
-    // igzip's level 1 needs its own work area (hash table and token buffer, 280 KB): one per thread,
-    // as frames encode in parallel, cleared for every image (15 us against about 1 ms of
-    // compression) so that nothing an earlier image left there can reach this one's matches.
-    thread_local std::vector<std::uint8_t> level_buffer(ISAL_DEF_LVL1_DEFAULT);
-    std::fill(level_buffer.begin(), level_buffer.end(), std::uint8_t(0));
-    // Stored blocks, the worst case, add 5 bytes per 64 KB; the rest is headers.
-    const std::size_t capacity = size + size / 1024 + 4096;
-    std::unique_ptr<std::uint8_t[]> out(new std::uint8_t[capacity]);
-    // Zeroed first: isal_deflate_stateless_init leaves fields unset that compression reads
-    // (hist_bits, the look-back limit), and garbage there made the bytes vary from run to run.
-    isal_zstream stream = {};
-    isal_deflate_stateless_init(&stream);
-    stream.hist_bits = 0;  // the default, PNG's 32 KB window
-    stream.level = 1;
-    stream.level_buf = level_buffer.data();
-    stream.level_buf_size = std::uint32_t(level_buffer.size());
-    stream.gzip_flag = IGZIP_ZLIB;  // PNG's IDAT holds a zlib stream (32 KB window)
-    stream.next_in = const_cast<std::uint8_t*>(data);
-    stream.avail_in = std::uint32_t(size);
-    stream.next_out = out.get();
-    stream.avail_out = std::uint32_t(capacity);
-    stream.end_of_stream = 1;
-    stream.flush = NO_FLUSH;
-    // Beyond igzip's 32-bit counts, or a stream that does not fit (neither happens with camera
-    // frames): libdeflate below.
-    if (capacity <= std::numeric_limits<std::uint32_t>::max() && isal_deflate_stateless(&stream) == COMP_OK &&
-        stream.avail_in == 0) {
-      size_out = stream.total_out;
-      return out;
-    }
-  }
-  libdeflate_compressor* compressor = libdeflate_alloc_compressor(compression);
-  if (!compressor) throw make_error("<png>", "", "libdeflate: cannot allocate a compressor");
-  const std::size_t bound = libdeflate_zlib_compress_bound(compressor, size);
-  std::unique_ptr<std::uint8_t[]> out(new std::uint8_t[bound]);
-  size_out = libdeflate_zlib_compress(compressor, data, size, out.get(), bound);
-  libdeflate_free_compressor(compressor);
-  if (size_out == 0) throw make_error("<png>", "", "libdeflate: compression failed");
-  return out;
-}
-
 // `raw`: rows of `row_bytes` bytes, samples already in PNG byte order. `fixed_filter`: the filter of
 // every row at the fast levels, where choosing per row would cost more than it saves.
 std::string encode(const std::uint8_t* raw, int width, int height, int channels, int bit_depth, int compression,
@@ -141,11 +87,7 @@ std::string encode(const std::uint8_t* raw, int width, int height, int channels,
   // Not value-initialised: every byte is written below, and zeroing a frame's worth first was a
   // pass over memory per image.
   const std::size_t filtered_size = (row_bytes + 1) * height;
-  // Plus 64 zero bytes: a vector loop that reads past the end of its input (igzip's hashing may)
-  // then reads the same bytes every time, never whatever the heap held there.
-  constexpr std::size_t kPadding = 64;
-  const std::unique_ptr<std::uint8_t[]> filtered(new std::uint8_t[filtered_size + kPadding]);
-  std::memset(filtered.get() + filtered_size, 0, kPadding);
+  const std::unique_ptr<std::uint8_t[]> filtered(new std::uint8_t[filtered_size]);
   std::vector<std::uint8_t> zero_row(row_bytes, 0), candidate(row_bytes);
   for (int y = 0; y < height; ++y) {
     const std::uint8_t* row = raw + row_bytes * y;
@@ -171,9 +113,17 @@ std::string encode(const std::uint8_t* raw, int width, int height, int channels,
     }
   }
 
-  std::size_t compressed_size = 0;
-  const std::unique_ptr<std::uint8_t[]> compressed =
-      compress_zlib(filtered.get(), filtered_size, compression, compressed_size);
+  // libdeflate rather than zlib: about 3x faster at the same level and smaller output (the
+  // measurements are in sim/README.md). Level 0 maps to its "store" level.
+  libdeflate_compressor* compressor = libdeflate_alloc_compressor(compression);
+  if (!compressor) throw make_error("<png>", "", "libdeflate: cannot allocate a compressor");
+  const std::size_t bound = libdeflate_zlib_compress_bound(compressor, filtered_size);
+  const std::unique_ptr<std::uint8_t[]> compressed(new std::uint8_t[bound]);
+  const std::size_t compressed_size =
+      libdeflate_zlib_compress(compressor, filtered.get(), filtered_size, compressed.get(), bound);
+  libdeflate_free_compressor(compressor);
+  if (compressed_size == 0) throw make_error("<png>", "", "libdeflate: compression failed");
+
   std::string png;
   png.reserve(compressed_size + 64);
   png.append("\x89PNG\r\n\x1a\n", 8);
