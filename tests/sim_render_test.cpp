@@ -422,7 +422,8 @@ TEST(Simulator, FramesCarryNormalsAndMaterialIdsOfTheHitTriangles) {
             0);
 
   // Not asked for: nothing computed.
-  const Simulator plain(open_top_room(), 0, small_options());
+  const Scene plain_scene = open_top_room();  // the simulator keeps a reference: not a temporary
+  const Simulator plain(plain_scene, 0, small_options());
   const SimulatedFrame plain_frame = plain.render_frame(plain.schedule()[1][3]);
   EXPECT_TRUE(plain_frame.normal_cam.empty());
   EXPECT_TRUE(plain_frame.material_id.empty());

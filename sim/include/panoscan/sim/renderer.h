@@ -41,6 +41,7 @@ struct RenderTimes {
 class Renderer {
  public:
   explicit Renderer(const Scene& scene);  // keeps a reference to `scene`: it must outlive this
+  explicit Renderer(Scene&& scene) = delete;  // so a temporary scene does not compile
   ~Renderer();
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;

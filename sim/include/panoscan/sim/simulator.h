@@ -59,6 +59,9 @@ class Simulator {
  public:
   // Validates the options and the position index; `scene` must outlive the simulator.
   Simulator(const Scene& scene, int position_index, const SimOptions& options);
+  // The simulator keeps a reference to its scene: a temporary one would be gone after the call
+  // (a test did this, and AddressSanitizer found the renderer reading the dead scene).
+  Simulator(Scene&& scene, int position_index, const SimOptions& options) = delete;
 
   const RigModel& rig() const { return rig_; }
   const MotionModel& motion() const { return motion_; }
