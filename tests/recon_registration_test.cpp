@@ -1,6 +1,8 @@
 // The ICP family (Table 4 rows) on panoramic point sets rendered from two centres of a room.
 #include <cmath>
+#include <random>
 
+#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
 #include "panoscan/core/error.h"
@@ -317,6 +319,63 @@ TEST(SurfacePreparation, ThePanoramaWindowGivesNormalsAsGoodAsTheKdTree) {
   bad = organised;
   bad.grid_width = 0;
   EXPECT_THROW(prepare_surface(bad, Eigen::Vector3d::Zero(), SurfaceOptions{}), Error);
+}
+
+// prepare_surface's closed-form eigen-solve against Eigen's iterative one. With k as large as the
+// cloud, every point's neighbourhood is the whole cloud, so all share one covariance: random
+// anisotropic blobs (plane-like to round) must give Eigen's smallest eigenvector as the normal and its
+// eigenvalues' ratio as the curvature; a line of points a normal across the line; one repeated point
+// the direction to the viewpoint; and the surface covariance is Segal et al.'s I - (1 - eps) n n^T.
+TEST(SurfacePreparation, ClosedFormEigenSolveAgreesWithEigensIterativeOne) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> normal;
+  const Eigen::Vector3d viewpoint(0.3, -2.0, 1.0);
+  for (int trial = 0; trial < 40; ++trial) {
+    // Axis scales from 1 cm down to 1e-5 cm across the surface, in a random frame.
+    const Eigen::Vector3d scales(0.01, 0.01 * std::pow(0.3, trial % 4), 0.01 * std::pow(0.1, trial % 6));
+    const Eigen::Matrix3d frame = Eigen::Quaterniond::UnitRandom().toRotationMatrix();
+    RegistrationCloud cloud;
+    const Eigen::Vector3d centre(1.0 + 0.1 * trial, 0.5, -0.2);
+    for (int i = 0; i < 20; ++i)
+      cloud.points.push_back(centre +
+                             frame * scales.cwiseProduct(Eigen::Vector3d(normal(rng), normal(rng), normal(rng))));
+    SurfaceOptions options;
+    options.neighbours = 20;
+    prepare_surface(cloud, viewpoint, options);
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3d& p : cloud.points) mean += p / 20.0;
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+    for (const Eigen::Vector3d& p : cloud.points) covariance += (p - mean) * (p - mean).transpose() / 20.0;
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> reference(covariance);
+    const Eigen::Vector3d expected_normal = reference.eigenvectors().col(0);
+    const double gap = (reference.eigenvalues()[1] - reference.eigenvalues()[0]) / reference.eigenvalues()[2];
+    for (std::size_t i = 0; i < cloud.points.size(); ++i) {
+      const Eigen::Vector3d& n = cloud.normals[i];
+      EXPECT_NEAR(n.norm(), 1.0, 1e-12);
+      EXPECT_GE(n.dot(viewpoint - cloud.points[i]), 0.0) << "trial " << trial;
+      if (gap > 1e-3) {
+        EXPECT_GT(std::abs(n.dot(expected_normal)), 1.0 - 1e-9) << "trial " << trial << " gap " << gap;
+      }
+      EXPECT_NEAR(cloud.curvature[i], reference.eigenvalues()[0] / reference.eigenvalues().sum(), 1e-6);
+      const Eigen::Matrix3d segal = Eigen::Matrix3d::Identity() - (1.0 - options.plane_epsilon) * n * n.transpose();
+      EXPECT_LT((cloud.surface_covariances[i] - segal).norm(), 1e-12);
+    }
+  }
+  // Collinear points: the normal is some direction across the line.
+  RegistrationCloud line;
+  for (int i = 0; i < 10; ++i)
+    line.points.push_back(Eigen::Vector3d(1, 2, 0.5) + 0.01 * i * Eigen::Vector3d(1, 2, 2) / 3);
+  prepare_surface(line, viewpoint, SurfaceOptions{});
+  for (const Eigen::Vector3d& n : line.normals) {
+    EXPECT_NEAR(n.norm(), 1.0, 1e-12);
+    EXPECT_LT(std::abs(n.dot(Eigen::Vector3d(1, 2, 2) / 3)), 1e-6);  // rounding of a rank-1 covariance
+  }
+  // One point repeated: no shape at all, the normal faces the viewpoint.
+  RegistrationCloud repeated;
+  repeated.points.assign(5, Eigen::Vector3d(1, 1, 1));
+  prepare_surface(repeated, viewpoint, SurfaceOptions{});
+  for (const Eigen::Vector3d& n : repeated.normals)
+    EXPECT_LT((n - (viewpoint - Eigen::Vector3d(1, 1, 1)).normalized()).norm(), 1e-12);
 }
 
 TEST(FeatureAlignment, OrbGuessThenIcpRecoversTheTransformBetweenTwoOfficePositions) {

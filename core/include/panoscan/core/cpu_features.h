@@ -19,10 +19,16 @@ inline bool has_avx512dq() {
   static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq");
   return has;
 }
+// BMI2 (pdep, pext): every AVX-512 CPU so far has it, but it is a separate flag.
+inline bool has_bmi2() {
+  static const bool has = __builtin_cpu_supports("bmi2");
+  return has;
+}
 #else
 inline bool has_avx() { return false; }
 inline bool has_avx2() { return false; }
 inline bool has_avx512dq() { return false; }
+inline bool has_bmi2() { return false; }
 #endif
 
 }  // namespace panoscan::cpu

@@ -1,0 +1,104 @@
+#include "panoscan/core/smallest_keys.h"
+
+#include <algorithm>
+
+#include "panoscan/core/cpu_features.h"
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define PANOSCAN_SMALLEST_KEYS_AVX512 1
+#endif
+
+namespace panoscan {
+
+namespace {
+
+#ifdef PANOSCAN_SMALLEST_KEYS_AVX512
+std::size_t positions_of_mask(std::uint64_t mask, std::uint32_t* positions) {
+  std::size_t n = 0;
+  for (; mask != 0; mask &= mask - 1) positions[n++] = std::uint32_t(__builtin_ctzll(mask));
+  return n;
+}
+
+// The k-th smallest of count <= 64 distinct keys by quickselect with the keys held in registers and
+// the keys still in play as a bit mask: each round counts those below a pivot with one compare per 8
+// keys and keeps the side that holds the k-th. A handful of rounds and one unpredictable branch each,
+// where std::nth_element mispredicts about every other comparison. The keys below and at the k-th
+// are the chosen ones.
+template <int V>
+__attribute__((target("avx512f,bmi2"))) std::uint64_t smallest_mask_avx512(const std::uint64_t* keys, std::size_t count,
+                                                                           std::size_t k) {
+  __m512i key[V];
+  for (int v = 0; v < V; ++v) {
+    const std::size_t first = std::size_t(v) * 8;
+    const __mmask8 lanes = first + 8 <= count ? __mmask8(0xFF) : __mmask8((1u << (count - first)) - 1);
+    key[v] = _mm512_maskz_loadu_epi64(lanes, keys + first);
+  }
+  std::uint64_t in_play = count == 64 ? ~std::uint64_t(0) : (std::uint64_t(1) << count) - 1;
+  std::uint64_t chosen = 0;  // keys known to be among the k smallest
+  std::size_t still_needed = k;
+  for (;;) {
+    // Median of three in-play keys (first, middle and last by position) as the pivot.
+    const int m = __builtin_popcountll(in_play);
+    const std::uint64_t a = keys[__builtin_ctzll(in_play)];
+    const std::uint64_t b = keys[__builtin_ctzll(_pdep_u64(std::uint64_t(1) << (m / 2), in_play))];
+    const std::uint64_t c = keys[63 - __builtin_clzll(in_play)];
+    const std::uint64_t pivot = std::max(std::min(a, b), std::min(std::max(a, b), c));
+    const __m512i pivots = _mm512_set1_epi64(static_cast<long long>(pivot));
+    std::uint64_t below = 0, at = 0;
+    for (int v = 0; v < V; ++v) {
+      below |= std::uint64_t(_mm512_cmplt_epu64_mask(key[v], pivots)) << (8 * v);
+      at |= std::uint64_t(_mm512_cmpeq_epu64_mask(key[v], pivots)) << (8 * v);
+    }
+    below &= in_play;
+    // Every round removes at least the pivot from play, so this ends.
+    const std::size_t smaller = std::size_t(__builtin_popcountll(below));
+    if (smaller >= still_needed) {
+      if (smaller == still_needed) return chosen | below;
+      in_play = below;
+    } else {
+      chosen |= below | at;
+      still_needed -= smaller + 1;
+      if (still_needed == 0) return chosen;
+      in_play &= ~(below | at);
+    }
+  }
+}
+
+std::uint64_t smallest_mask(const std::uint64_t* keys, std::size_t count, std::size_t k) {
+  switch ((count + 7) / 8) {
+    case 1: return smallest_mask_avx512<1>(keys, count, k);
+    case 2: return smallest_mask_avx512<2>(keys, count, k);
+    case 3: return smallest_mask_avx512<3>(keys, count, k);
+    case 4: return smallest_mask_avx512<4>(keys, count, k);
+    case 5: return smallest_mask_avx512<5>(keys, count, k);
+    case 6: return smallest_mask_avx512<6>(keys, count, k);
+    case 7: return smallest_mask_avx512<7>(keys, count, k);
+    default: return smallest_mask_avx512<8>(keys, count, k);
+  }
+}
+#endif
+
+}  // namespace
+
+std::size_t smallest_keys(const std::uint64_t* keys, std::size_t count, std::size_t k, std::uint32_t* positions,
+                          std::vector<std::uint64_t>& scratch, SmallestKeysKernel kernel) {
+  if (k >= count) {
+    for (std::size_t i = 0; i < count; ++i) positions[i] = std::uint32_t(i);
+    return count;
+  }
+  if (k == 0) return 0;
+#ifdef PANOSCAN_SMALLEST_KEYS_AVX512
+  if (kernel == SmallestKeysKernel::kFastest && count <= 64 && cpu::has_avx512dq() && cpu::has_bmi2())
+    return positions_of_mask(smallest_mask(keys, count, k), positions);
+#endif
+  scratch.assign(keys, keys + count);
+  std::nth_element(scratch.begin(), scratch.begin() + long(k) - 1, scratch.end());
+  const std::uint64_t kth = scratch[k - 1];
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < count && n < k; ++i)
+    if (keys[i] <= kth) positions[n++] = std::uint32_t(i);
+  return n;
+}
+
+}  // namespace panoscan
