@@ -281,8 +281,18 @@ TEST(SurfacePreparation, ThePanoramaWindowGivesNormalsAsGoodAsTheKdTree) {
     }
   RegistrationCloud unorganised = organised;
   unorganised.grid_cells.clear();
+  RegistrationCloud scalar_window = organised;
   prepare_surface(organised, Eigen::Vector3d::Zero(), SurfaceOptions{});
   prepare_surface(unorganised, Eigen::Vector3d::Zero(), SurfaceOptions{});
+  // The vector window (AVX-512, where the CPU has it) and the scalar reference give the same bits.
+  SurfaceOptions scalar_options;
+  scalar_options.vector_kernels = false;
+  prepare_surface(scalar_window, Eigen::Vector3d::Zero(), scalar_options);
+  for (std::size_t i = 0; i < organised.points.size(); ++i) {
+    ASSERT_EQ(organised.normals[i], scalar_window.normals[i]) << i;
+    ASSERT_EQ(organised.curvature[i], scalar_window.curvature[i]) << i;
+    ASSERT_EQ(organised.surface_covariances[i], scalar_window.surface_covariances[i]) << i;
+  }
   // Median angle (deg) to the true face over all points, and over those seen at grazing angles.
   auto median_error = [&](const RegistrationCloud& cloud, double max_incidence) {
     std::vector<double> errors;

@@ -17,6 +17,12 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define PANOSCAN_SURFACE_AVX512 1
+#endif
+
+#include "panoscan/core/cpu_features.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/kdtree.h"
 #include "panoscan/core/smallest_keys.h"
@@ -79,7 +85,8 @@ std::uint64_t window_key(double squared_distance, std::size_t position) {
 // wrap: the grid is a panorama's, periodic in azimuth), in window order (row by row, so the fit's
 // sums do not depend on how they were selected).
 std::size_t grid_neighbours(const RegistrationCloud& cloud, const std::vector<std::int32_t>& cell_index, std::size_t i,
-                            int r, std::size_t k, WindowScratch& scratch, std::uint32_t* indices) {
+                            int r, std::size_t k, SmallestKeysKernel kernel, WindowScratch& scratch,
+                            std::uint32_t* indices) {
   const int width = cloud.grid_width, height = cloud.grid_height;
   const int row = int(cloud.grid_cells[i] / std::uint32_t(width)), column = int(cloud.grid_cells[i] % std::uint32_t(width));
   const Eigen::Vector3d& p = cloud.points[i];
@@ -108,10 +115,71 @@ std::size_t grid_neighbours(const RegistrationCloud& cloud, const std::vector<st
       candidates[count++] = std::uint32_t(j);
     }
   }
-  const std::size_t found = smallest_keys(keys, count, k, scratch.chosen.data(), scratch.selection);
+  const std::size_t found = smallest_keys(keys, count, k, scratch.chosen.data(), scratch.selection, kernel);
   for (std::size_t j = 0; j < found; ++j) indices[j] = candidates[scratch.chosen[j]];
   return found;
 }
+
+#ifdef PANOSCAN_SURFACE_AVX512
+// The cloud's coordinates laid out as its grid, one plane per axis (empty cells hold zeros): a window
+// row is then 7 consecutive doubles per axis, where gathers from the points (slow on Zen 4) made this
+// path slower than the scalar one.
+struct GridPlanes {
+  std::vector<double> x, y, z;
+  explicit GridPlanes(const RegistrationCloud& cloud) {
+    const std::size_t cells = std::size_t(cloud.grid_width) * std::size_t(cloud.grid_height);
+    x.assign(cells, 0.0);
+    y.assign(cells, 0.0);
+    z.assign(cells, 0.0);
+    for (std::size_t i = 0; i < cloud.points.size(); ++i) {
+      const std::uint32_t cell = cloud.grid_cells[i];
+      x[cell] = cloud.points[i].x(), y[cell] = cloud.points[i].y(), z[cell] = cloud.points[i].z();
+    }
+  }
+};
+
+// grid_neighbours for radius 3 around a cell at least 3 columns from either edge (no wrap), on
+// AVX-512: each window row's 7 cells in one vector (slot 8 row + column; the 8th lane unused), their
+// keys as window_key makes them but with the slot for the position (it orders as the window position
+// does, so the chosen set is the same), and the 7 vectors handed to smallest_keys_mask in place. The
+// distances are rounded as the scalar path rounds them (no contraction into FMAs): the two paths give
+// the same bits.
+#pragma GCC push_options
+#pragma GCC optimize("fp-contract=off")
+__attribute__((target("avx512f,avx512dq,bmi2"))) std::size_t interior_neighbours_avx512(
+    const RegistrationCloud& cloud, const GridPlanes& planes, const std::vector<std::int32_t>& cell_index, int row,
+    int column, const Eigen::Vector3d& p, std::size_t k, std::uint32_t* indices) {
+  alignas(64) std::uint64_t keys[64];
+  alignas(64) std::int32_t points_in_slots[64];
+  const __m512d px = _mm512_set1_pd(p.x()), py = _mm512_set1_pd(p.y()), pz = _mm512_set1_pd(p.z());
+  const __m512i kept_bits = _mm512_set1_epi64(~static_cast<long long>((1u << kPositionBits) - 1));
+  const __m512i lane = _mm512_set_epi64(7, 6, 5, 4, 3, 2, 1, 0);
+  std::uint64_t in_play = 0;
+  for (int window_row = 0; window_row < 7; ++window_row) {
+    const int v = row + window_row - 3;
+    if (v < 0 || v >= cloud.grid_height) continue;
+    const std::size_t first = std::size_t(v) * std::size_t(cloud.grid_width) + std::size_t(column - 3);
+    const __m512i cells16 = _mm512_maskz_loadu_epi32(0x7F, cell_index.data() + first);
+    const __mmask8 valid = __mmask8(_mm512_mask_cmpneq_epi32_mask(0x7F, cells16, _mm512_set1_epi32(kEmptyCell)));
+    _mm256_store_si256(reinterpret_cast<__m256i*>(points_in_slots + 8 * window_row), _mm512_castsi512_si256(cells16));
+    const __m512d dx = _mm512_sub_pd(_mm512_maskz_loadu_pd(0x7F, planes.x.data() + first), px);
+    const __m512d dy = _mm512_sub_pd(_mm512_maskz_loadu_pd(0x7F, planes.y.data() + first), py);
+    const __m512d dz = _mm512_sub_pd(_mm512_maskz_loadu_pd(0x7F, planes.z.data() + first), pz);
+    // (dx^2 + dy^2) + dz^2: Eigen's order for squaredNorm of a 3-vector.
+    const __m512d squared =
+        _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(dx, dx), _mm512_mul_pd(dy, dy)), _mm512_mul_pd(dz, dz));
+    const __m512i slot = _mm512_add_epi64(lane, _mm512_set1_epi64(8 * window_row));
+    const __m512i key = _mm512_or_si512(_mm512_and_si512(_mm512_castpd_si512(squared), kept_bits), slot);
+    _mm512_store_si512(keys + 8 * window_row, key);
+    in_play |= std::uint64_t(valid) << (8 * window_row);
+  }
+  std::size_t found = 0;
+  for (std::uint64_t chosen = smallest_keys_mask(keys, in_play, k); chosen != 0; chosen &= chosen - 1)
+    indices[found++] = std::uint32_t(points_in_slots[__builtin_ctzll(chosen)]);
+  return found;
+}
+#pragma GCC pop_options
+#endif
 
 // The eigenvalues (ascending) of a symmetric 3x3 matrix and the unit eigenvector of the smallest,
 // in closed form (Smith 1961: the characteristic cubic of the shifted, scaled matrix by its
@@ -222,6 +290,15 @@ void prepare_surface(RegistrationCloud& cloud, const Eigen::Vector3d& viewpoint,
   cloud.curvature.assign(n, 0.f);
   cloud.surface_covariances.assign(n, Eigen::Matrix3d::Identity() * 1e-4);
   const std::size_t k = std::min<std::size_t>(options.neighbours, n);
+  const SmallestKeysKernel selection_kernel =
+      options.vector_kernels ? SmallestKeysKernel::kFastest : SmallestKeysKernel::kNthElement;
+#ifdef PANOSCAN_SURFACE_AVX512
+  // The vector window: radius 3 (7 columns in a vector), and the same CPU features as the selection's.
+  const bool vector_window = options.vector_kernels && organised && options.grid_radius == 3 && k <= 64 &&
+                             cpu::has_avx512dq() && cpu::has_bmi2();
+  std::unique_ptr<GridPlanes> planes;
+  if (vector_window) planes = std::make_unique<GridPlanes>(cloud);
+#endif
   tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const tbb::blocked_range<std::size_t>& range) {
@@ -229,9 +306,23 @@ void prepare_surface(RegistrationCloud& cloud, const Eigen::Vector3d& viewpoint,
       std::vector<double> squared(k);
       WindowScratch scratch;
       for (std::size_t i = range.begin(); i != range.end(); ++i) {
-        const std::size_t found =
-            organised ? grid_neighbours(cloud, cell_index, i, options.grid_radius, k, scratch, indices.data())
-                      : tree->knn(cloud.points[i], k, indices.data(), squared.data());
+        std::size_t found;
+        if (!organised) {
+          found = tree->knn(cloud.points[i], k, indices.data(), squared.data());
+        } else {
+#ifdef PANOSCAN_SURFACE_AVX512
+          const int row = int(cloud.grid_cells[i] / std::uint32_t(cloud.grid_width));
+          const int column = int(cloud.grid_cells[i] % std::uint32_t(cloud.grid_width));
+          if (vector_window && column >= 3 && column + 3 < cloud.grid_width) {
+            found =
+                interior_neighbours_avx512(cloud, *planes, cell_index, row, column, cloud.points[i], k, indices.data());
+            fit_surface(cloud, i, indices.data(), found, viewpoint, options);
+            continue;
+          }
+#endif
+          found =
+              grid_neighbours(cloud, cell_index, i, options.grid_radius, k, selection_kernel, scratch, indices.data());
+        }
         fit_surface(cloud, i, indices.data(), found, viewpoint, options);
       }
     });

@@ -21,4 +21,9 @@ std::size_t smallest_keys(const std::uint64_t* keys, std::size_t count, std::siz
                           std::vector<std::uint64_t>& scratch,
                           SmallestKeysKernel kernel = SmallestKeysKernel::kFastest);
 
+// The same for up to 64 keys in slots: keys[s] takes part where bit s of `in_play` is set (other
+// slots are not read), and the result has bit s set for each chosen slot.
+std::uint64_t smallest_keys_mask(const std::uint64_t* keys, std::uint64_t in_play, std::size_t k,
+                                 SmallestKeysKernel kernel = SmallestKeysKernel::kFastest);
+
 }  // namespace panoscan

@@ -89,6 +89,9 @@ struct SurfaceOptions {
   // worse than plain GICP. Integration (Eq. 10-11) uses the metric form as a position uncertainty.
   bool metric_scale = false;
   int threads = 0;
+  // false: the scalar reference paths for the window's neighbours (the result is the same bits;
+  // tests compare the two).
+  bool vector_kernels = true;
 };
 
 // Normals, curvature and surface covariances from the k nearest neighbours (nanoflann kd-tree).
