@@ -193,26 +193,37 @@ struct SmallestEigen {
   Eigen::Vector3d vector;
 };
 
-SmallestEigen smallest_eigen(const Eigen::Matrix3d& a, const Eigen::Vector3d& fallback) {
-  const double shift = a.trace() / 3.0;
-  Eigen::Matrix3d b = a;
-  b.diagonal().array() -= shift;
-  const double scale = b.cwiseAbs().maxCoeff();
+// A symmetric 3x3 matrix by its six distinct entries, in plain scalars: Eigen's 3x3 expressions
+// spilled to the stack in this hot path.
+struct Symmetric3 {
+  double xx, xy, xz, yy, yz, zz;
+};
+
+SmallestEigen smallest_eigen(const Symmetric3& a, const Eigen::Vector3d& fallback) {
+  const double shift = (a.xx + a.yy + a.zz) / 3.0;
+  double b00 = a.xx - shift, b11 = a.yy - shift, b22 = a.zz - shift, b01 = a.xy, b02 = a.xz, b12 = a.yz;
+  const double scale =
+      std::max({std::abs(b00), std::abs(b11), std::abs(b22), std::abs(b01), std::abs(b02), std::abs(b12)});
   if (!(scale > 0)) return {Eigen::Vector3d::Constant(shift), fallback};
-  b /= scale;
+  const double inverse_scale = 1.0 / scale;
+  b00 *= inverse_scale, b11 *= inverse_scale, b22 *= inverse_scale;
+  b01 *= inverse_scale, b02 *= inverse_scale, b12 *= inverse_scale;
   // B has trace 0: x^3 - 3 p x - 2 q = 0 with p = tr(B^2) / 6, q = det(B) / 2, roots
   // 2 sqrt(p) cos(phi + 2 pi j / 3) with phi = acos(q / p^(3/2)) / 3.
-  const double p = (b.cwiseAbs2().sum()) / 6.0;
-  const double q = 0.5 * b.determinant();
+  const double p = (b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * (b01 * b01 + b02 * b02 + b12 * b12)) / 6.0;
+  const double q =
+      0.5 * (b00 * (b11 * b22 - b12 * b12) - b01 * (b01 * b22 - b12 * b02) + b02 * (b01 * b12 - b11 * b02));
   const double sqrt_p = std::sqrt(p);
   const double phi = std::acos(std::clamp(q / (p * sqrt_p), -1.0, 1.0)) / 3.0;
   const double largest = 2.0 * sqrt_p * std::cos(phi);
   const double smallest = 2.0 * sqrt_p * std::cos(phi + 2.0 * M_PI / 3.0);
   const double middle = -largest - smallest;
   SmallestEigen result{Eigen::Vector3d(smallest, middle, largest) * scale + Eigen::Vector3d::Constant(shift), fallback};
-  b.diagonal().array() -= smallest;
-  const Eigen::Vector3d r0 = b.row(0), r1 = b.row(1), r2 = b.row(2);
-  const Eigen::Vector3d c01 = r0.cross(r1), c02 = r0.cross(r2), c12 = r1.cross(r2);
+  // Rows of B - lambda_0 I (symmetric: r0 = (d0, b01, b02), r1 = (b01, d1, b12), r2 = (b02, b12, d2)).
+  const double d0 = b00 - smallest, d1 = b11 - smallest, d2 = b22 - smallest;
+  const Eigen::Vector3d c01(b01 * b12 - b02 * d1, b02 * b01 - d0 * b12, d0 * d1 - b01 * b01);  // r0 x r1
+  const Eigen::Vector3d c02(b01 * d2 - b02 * b12, b02 * b02 - d0 * d2, d0 * b12 - b01 * b02);  // r0 x r2
+  const Eigen::Vector3d c12(d1 * d2 - b12 * b12, b12 * b02 - b01 * d2, b01 * b12 - d1 * b02);  // r1 x r2
   const double n01 = c01.squaredNorm(), n02 = c02.squaredNorm(), n12 = c12.squaredNorm();
   // B is scaled to entries of at most 1, so these thresholds are relative ones.
   const double largest_cross = std::max({n01, n02, n12});
@@ -221,6 +232,7 @@ SmallestEigen smallest_eigen(const Eigen::Matrix3d& a, const Eigen::Vector3d& fa
     result.vector = c / std::sqrt(largest_cross);
     return result;
   }
+  const Eigen::Vector3d r0(d0, b01, b02), r1(b01, d1, b12), r2(b02, b12, d2);
   const double m0 = r0.squaredNorm(), m1 = r1.squaredNorm(), m2 = r2.squaredNorm();
   const double longest_row = std::max({m0, m1, m2});
   if (longest_row > 1e-24) result.vector = (m0 == longest_row ? r0 : (m1 == longest_row ? r1 : r2)).unitOrthogonal();
@@ -249,11 +261,11 @@ void fit_surface(RegistrationCloud& cloud, std::size_t i, const std::uint32_t* i
     sxx += dx * dx, sxy += dx * dy, sxz += dx * dz;
     syy += dy * dy, syz += dy * dz, szz += dz * dz;
   }
-  const double count = double(found);
-  const Eigen::Vector3d mean = Eigen::Vector3d(sx, sy, sz) / count;
-  Eigen::Matrix3d covariance;
-  covariance << sxx, sxy, sxz, sxy, syy, syz, sxz, syz, szz;
-  covariance = covariance / count - mean * mean.transpose();
+  const double inverse_count = 1.0 / double(found);
+  const double mx = sx * inverse_count, my = sy * inverse_count, mz = sz * inverse_count;
+  const Symmetric3 covariance{sxx * inverse_count - mx * mx, sxy * inverse_count - mx * my,
+                              sxz * inverse_count - mx * mz, syy * inverse_count - my * my,
+                              syz * inverse_count - my * mz, szz * inverse_count - mz * mz};
   const SmallestEigen eigen = smallest_eigen(covariance, towards_viewpoint);
   const Eigen::Vector3d values = eigen.values.cwiseMax(0.0);  // ascending
   Eigen::Vector3d normal = eigen.vector;
@@ -265,8 +277,10 @@ void fit_surface(RegistrationCloud& cloud, std::size_t i, const std::uint32_t* i
   // U diag(eps, 1, 1) U^T = I - (1 - eps) n n^T by default; metric_scale: scaled by the
   // neighbourhood's in-plane variance (m^2). registration.h compares the two.
   const double in_plane = options.metric_scale ? std::max(0.5 * (values[1] + values[2]), 1e-10) : 1.0;
-  cloud.surface_covariances[i] =
-      in_plane * (Eigen::Matrix3d::Identity() - (1.0 - options.plane_epsilon) * normal * normal.transpose());
+  const double across = in_plane * (1.0 - options.plane_epsilon);
+  Eigen::Matrix3d& shape = cloud.surface_covariances[i];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) shape(r, c) = (r == c ? in_plane : 0.0) - across * normal[r] * normal[c];
 }
 
 }  // namespace
