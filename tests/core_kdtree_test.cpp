@@ -60,12 +60,45 @@ TEST(PointKdTree, KnnIsSortedAndMatchesBruteForce) {
   }
 }
 
+// knn_within: the k nearest strictly closer than the radius, closest first, and fewer (down to none)
+// when fewer are that close. Registration's correspondence step relies on "every point not returned
+// is at least as far as the k-th returned one, or as the radius".
+TEST(PointKdTree, KnnWithinMatchesBruteForce) {
+  const std::vector<Eigen::Vector3d> points = random_points(3000, 7);
+  const PointKdTree tree(points);
+  const std::vector<Eigen::Vector3d> queries = random_points(300, 8);
+  std::size_t fewer = 0, none = 0;
+  for (std::size_t t = 0; t < queries.size(); ++t) {
+    const Eigen::Vector3d& q = queries[t];
+    const double radius = 0.02 + 0.1 * double(t % 7) / 6.0;
+    std::vector<double> sorted;
+    for (const Eigen::Vector3d& p : points)
+      if ((p - q).squaredNorm() < radius * radius) sorted.push_back((p - q).squaredNorm());
+    std::sort(sorted.begin(), sorted.end());
+    for (std::size_t k : {1, 2, 5}) {
+      std::uint32_t indices[5];
+      double squared[5];
+      const std::size_t found = tree.knn_within(q, k, radius, indices, squared);
+      ASSERT_EQ(found, std::min(k, sorted.size())) << t << " k " << k;
+      for (std::size_t j = 0; j < found; ++j) {
+        EXPECT_EQ(squared[j], sorted[j]) << t << " k " << k;
+        EXPECT_EQ(squared[j], (points[indices[j]] - q).squaredNorm());
+      }
+      fewer += found < k;
+      none += found == 0;
+    }
+  }
+  EXPECT_GT(fewer, 0u);  // the radius did cut some searches short
+  EXPECT_GT(none, 0u);
+}
+
 TEST(PointKdTree, EmptyTreeFindsNothing) {
   const PointKdTree tree({});
   std::uint32_t index;
   double d2;
   EXPECT_EQ(tree.knn(Eigen::Vector3d::Zero(), 1, &index, &d2), 0u);
   EXPECT_EQ(tree.nearest_within(Eigen::Vector3d::Zero(), 1.0), -1);
+  EXPECT_EQ(tree.knn_within(Eigen::Vector3d::Zero(), 1, 1.0, &index, &d2), 0u);
 }
 
 }  // namespace

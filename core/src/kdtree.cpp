@@ -63,4 +63,16 @@ long PointKdTree::nearest_within(const Eigen::Vector3d& query, double max_distan
   return static_cast<long>(index);
 }
 
+std::size_t PointKdTree::knn_within(const Eigen::Vector3d& query, std::size_t k, double max_distance,
+                                    std::uint32_t* indices, double* squared_distances) const {
+  if (!impl_->tree || k == 0) return 0;
+  // As nearest_within: the worst distance starts at the radius, so farther subtrees are pruned.
+  nanoflann::KNNResultSet<double, std::uint32_t> result(k);
+  result.init(indices, squared_distances);
+  squared_distances[k - 1] = max_distance * max_distance;
+  const double coords[3] = {query.x(), query.y(), query.z()};
+  impl_->tree->findNeighbors(result, coords, nanoflann::SearchParams());
+  return result.size();
+}
+
 }  // namespace panoscan

@@ -116,7 +116,9 @@ class Problem {
         tree_(target.points),
         source_covariances_(combined_covariances(source, options.method)),
         target_covariances_(combined_covariances(target, options.method)),
-        correspondences_(source.points.size(), -1) {
+        correspondences_(source.points.size(), -1),
+        searched_at_(source.points.size()),
+        clear_(source.points.size(), 0.0) {
     if (options.method == IcpMethod::kPointToPlaneCurvature && !target.confidence.empty()) {
       // Confidence relative to the median count, saturating: a pixel seen twice as often as
       // the typical one is not twice as trustworthy.
@@ -148,10 +150,17 @@ class Problem {
     }
   }
 
-  // Finds the correspondence of every source point in `active` placed by target_from_source.
-  // The nearest target point is searched within lambda_a and, when the point had a correspondence
-  // before, within its distance to that one (plus a hair): the previous match bounds the nearest,
-  // so the search is exact but prunes most of the tree once the pose settles.
+  // Finds the correspondence of every source point in `active` placed by target_from_source: its
+  // nearest target point within lambda_a, exactly.
+  // - The search is bounded by lambda_a and, when the point had a correspondence before, by twice
+  //   its distance to that one: the previous match bounds the nearest, so most of the tree is pruned.
+  // - It returns the two nearest, and remembers where the point was searched from (s) and how far the
+  //   second one was (c; lambda_a or the bound when there was none). Every other target point is then
+  //   at least c from s, so at least c - |q - s| from the point's new place q.
+  // - Once the pose settles, the point moves by micrometres between iterations while c exceeds the
+  //   nearest distance by millimetres: if the remembered match is closer to q than c - |q - s| (and
+  //   than lambda_a), it is still the strict nearest and the search is skipped. The result is the
+  //   search's own (ties aside, which the search also breaks arbitrarily).
   void correspond(const Rigid3d& target_from_source, const std::vector<std::uint32_t>& active) {
     const Eigen::Matrix3d rotation = target_from_source.linear();
     const double max_d = options_.max_correspondence_m;
@@ -164,9 +173,23 @@ class Problem {
         const Eigen::Vector3d q = target_from_source * source_.points[i];
         if (options_.method != IcpMethod::kAnisotropic) {
           double bound = max_d;
-          if (correspondences_[i] >= 0)
-            bound = std::min(bound, (target_.points[std::size_t(correspondences_[i])] - q).norm() * (1 + 1e-9) + 1e-12);
-          correspondences_[i] = tree_.nearest_within(q, bound);
+          if (correspondences_[i] >= 0) {
+            const double to_match = (target_.points[std::size_t(correspondences_[i])] - q).norm();
+            // Relative and absolute margins for the rounding of the three distances.
+            const double others_at_least = (clear_[i] - (q - searched_at_[i]).norm()) * (1 - 1e-9) - 1e-12;
+            if (to_match < others_at_least && to_match < max_d) continue;
+            bound = std::min(bound, 2 * to_match * (1 + 1e-9) + 1e-12);
+          }
+          std::uint32_t nearest[2];
+          double squared_distances[2];
+          const std::size_t found = tree_.knn_within(q, 2, bound, nearest, squared_distances);
+          if (found == 0) {
+            correspondences_[i] = -1;
+            continue;
+          }
+          correspondences_[i] = long(nearest[0]);
+          searched_at_[i] = q;
+          clear_[i] = found == 2 ? std::sqrt(squared_distances[1]) : bound;
           continue;
         }
         // Anisotropic ICP: the Mahalanobis-nearest among the Euclidean candidates.
@@ -242,6 +265,10 @@ class Problem {
   PointKdTree tree_;
   std::vector<Eigen::Matrix3d> source_covariances_, target_covariances_;
   std::vector<long> correspondences_;  // per source point; -1 = none
+  // Per source point with a correspondence: where its last search was made from, and how far from
+  // there every target point but its match is at least (correspond()).
+  std::vector<Eigen::Vector3d> searched_at_;
+  std::vector<double> clear_;
   float median_confidence_ = 1.f;
 };
 

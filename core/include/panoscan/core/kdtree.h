@@ -25,6 +25,10 @@ class PointKdTree {
   std::size_t knn(const Eigen::Vector3d& query, std::size_t k, std::uint32_t* indices, double* squared_distances) const;
   // Nearest point within `max_distance`; -1 if none.
   long nearest_within(const Eigen::Vector3d& query, double max_distance, double* squared_distance = nullptr) const;
+  // Up to k nearest points closer than `max_distance`, closest first; returns how many. Every point
+  // not returned is at least as far as the k-th returned one, or as max_distance when fewer came back.
+  std::size_t knn_within(const Eigen::Vector3d& query, std::size_t k, double max_distance, std::uint32_t* indices,
+                         double* squared_distances) const;
 
  private:
   struct Impl;
