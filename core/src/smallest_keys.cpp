@@ -73,6 +73,13 @@ bool vector_kernel(SmallestKeysKernel kernel) {
 }
 #endif
 
+// The k-th smallest (k >= 1) of keys[0..n), which it reorders: the scalar kernel's threshold (the
+// chosen keys are those at or below it).
+std::uint64_t kth_smallest(std::uint64_t* keys, std::size_t n, std::size_t k) {
+  std::nth_element(keys, keys + k - 1, keys + n);
+  return keys[k - 1];
+}
+
 }  // namespace
 
 std::uint64_t smallest_keys_mask(const std::uint64_t* keys, std::uint64_t in_play, std::size_t k,
@@ -86,8 +93,7 @@ std::uint64_t smallest_keys_mask(const std::uint64_t* keys, std::uint64_t in_pla
   std::uint64_t in_play_keys[64];
   std::size_t n = 0;
   for (std::uint64_t rest = in_play; rest != 0; rest &= rest - 1) in_play_keys[n++] = keys[__builtin_ctzll(rest)];
-  std::nth_element(in_play_keys, in_play_keys + k - 1, in_play_keys + n);
-  const std::uint64_t kth = in_play_keys[k - 1];
+  const std::uint64_t kth = kth_smallest(in_play_keys, n, k);
   std::uint64_t chosen = 0;
   for (std::uint64_t rest = in_play; rest != 0; rest &= rest - 1) {
     const int slot = __builtin_ctzll(rest);
@@ -111,8 +117,7 @@ std::size_t smallest_keys(const std::uint64_t* keys, std::size_t count, std::siz
     return n;
   }
   scratch.assign(keys, keys + count);
-  std::nth_element(scratch.begin(), scratch.begin() + long(k) - 1, scratch.end());
-  const std::uint64_t kth = scratch[k - 1];
+  const std::uint64_t kth = kth_smallest(scratch.data(), count, k);
   std::size_t n = 0;
   for (std::size_t i = 0; i < count && n < k; ++i)
     if (keys[i] <= kth) positions[n++] = std::uint32_t(i);

@@ -308,11 +308,22 @@ void prepare_surface(RegistrationCloud& cloud, const Eigen::Vector3d& viewpoint,
       options.vector_kernels ? SmallestKeysKernel::kFastest : SmallestKeysKernel::kNthElement;
 #ifdef PANOSCAN_SURFACE_AVX512
   // The vector window: radius 3 (7 columns in a vector), and the same CPU features as the selection's.
-  const bool vector_window = options.vector_kernels && organised && options.grid_radius == 3 && k <= 64 &&
-                             cpu::has_avx512dq() && cpu::has_bmi2();
+  const bool vector_window =
+      options.vector_kernels && organised && options.grid_radius == 3 && cpu::has_avx512dq() && cpu::has_bmi2();
   std::unique_ptr<GridPlanes> planes;
   if (vector_window) planes = std::make_unique<GridPlanes>(cloud);
 #endif
+  // Point i's neighbours into `indices`; returns how many.
+  auto neighbours = [&](std::size_t i, std::uint32_t* indices, double* squared, WindowScratch& scratch) {
+    if (!organised) return tree->knn(cloud.points[i], k, indices, squared);
+#ifdef PANOSCAN_SURFACE_AVX512
+    const int row = int(cloud.grid_cells[i] / std::uint32_t(cloud.grid_width));
+    const int column = int(cloud.grid_cells[i] % std::uint32_t(cloud.grid_width));
+    if (vector_window && column >= 3 && column + 3 < cloud.grid_width)
+      return interior_neighbours_avx512(cloud, *planes, cell_index, row, column, cloud.points[i], k, indices);
+#endif
+    return grid_neighbours(cloud, cell_index, i, options.grid_radius, k, selection_kernel, scratch, indices);
+  };
   tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const tbb::blocked_range<std::size_t>& range) {
@@ -320,24 +331,8 @@ void prepare_surface(RegistrationCloud& cloud, const Eigen::Vector3d& viewpoint,
       std::vector<double> squared(k);
       WindowScratch scratch;
       for (std::size_t i = range.begin(); i != range.end(); ++i) {
-        std::size_t found;
-        if (!organised) {
-          found = tree->knn(cloud.points[i], k, indices.data(), squared.data());
-        } else {
-#ifdef PANOSCAN_SURFACE_AVX512
-          const int row = int(cloud.grid_cells[i] / std::uint32_t(cloud.grid_width));
-          const int column = int(cloud.grid_cells[i] % std::uint32_t(cloud.grid_width));
-          if (vector_window && column >= 3 && column + 3 < cloud.grid_width) {
-            found =
-                interior_neighbours_avx512(cloud, *planes, cell_index, row, column, cloud.points[i], k, indices.data());
-            fit_surface(cloud, i, indices.data(), found, viewpoint, options);
-            continue;
-          }
-#endif
-          found =
-              grid_neighbours(cloud, cell_index, i, options.grid_radius, k, selection_kernel, scratch, indices.data());
-        }
-        fit_surface(cloud, i, indices.data(), found, viewpoint, options);
+        fit_surface(cloud, i, indices.data(), neighbours(i, indices.data(), squared.data(), scratch), viewpoint,
+                    options);
       }
     });
   });
