@@ -25,6 +25,7 @@
 #include "panoscan/scenes/scenes.h"
 #include "panoscan/sim/simulator.h"
 #include "test_util.h"
+#include "depth_energy.h"
 #include "depth_terms.h"
 
 #include <tbb/task_arena.h>
@@ -631,6 +632,49 @@ TEST(PanoramaFusion, VarianceMarksTheInterferenceBands) {
   EXPECT_EQ(emptied[0], 0);
   EXPECT_NEAR(quantile(ratio[0], 0.9), 1.0, 0.02);
   EXPECT_NEAR(quantile(ratio[0], 0.5), 1.0, 0.02);
+}
+
+// The solver's gradient is its energy's: at a point off the start (each depth moved by up to 5 mm),
+// the gradient that evaluate() assembles (data term plus every smoothness term whose stencil holds
+// the unknown, as anchor, left, right, upper or lower neighbour) matches central differences of
+// the smoothed energy at unknowns spread over the panorama, for every smoothness term.
+TEST(PanoramaFusion, SolverGradientMatchesCentralDifferencesOfItsEnergy) {
+  const SimulatedScan& s = office_noisy();
+  WarpOptions warp;
+  warp.height = 48;
+  const PanoramaMeasurements m = warp_frames(s.index, s.truth, warp);
+  for (const auto method : {DepthFusionMethod::kTvCylindrical, DepthFusionMethod::kTvRadial, DepthFusionMethod::kTsa,
+                            DepthFusionMethod::kTp}) {
+    FusionOptions fusion;
+    fusion.method = method;
+    fusion.lambda_scale = 30.0;  // the smoothness terms well above the data term's noise
+    std::vector<double> x = detail::depth_energy(m, fusion, {}).x;
+    const std::size_t n = x.size();
+    ASSERT_GT(n, 1000u);
+    for (std::size_t i = 0; i < n; ++i) x[i] += 0.005 * std::sin(1.7 * double(i));
+    const detail::DepthEnergy at = detail::depth_energy(m, fusion, x);
+    ASSERT_EQ(at.gradient.size(), n);
+    double smoothness_share = 0.0;  // how much of the checked gradients the smoothness terms make
+    int checked = 0;
+    for (std::size_t k = 0; k < 60; ++k) {
+      const std::size_t i = (k * 7919) % n;
+      const double h = 1e-6;
+      std::vector<double> plus = x, minus = x;
+      plus[i] += h;
+      minus[i] -= h;
+      const double central =
+          (detail::depth_energy(m, fusion, plus).smoothed - detail::depth_energy(m, fusion, minus).smoothed) / (2 * h);
+      EXPECT_NEAR(at.gradient[i], central, 1e-4 * std::max(1.0, std::abs(central)))
+          << to_string(method) << " unknown " << i;
+      FusionOptions data_only = fusion;
+      data_only.lambda_scale = 0.0;
+      const double data_gradient = detail::depth_energy(m, data_only, x).gradient[i];
+      smoothness_share += std::abs(at.gradient[i] - data_gradient) / std::max(1e-12, std::abs(at.gradient[i]));
+      ++checked;
+    }
+    // The check means something only if the smoothness terms move the gradient.
+    EXPECT_GT(smoothness_share / checked, 0.2) << to_string(method);
+  }
 }
 
 TEST(PanoramaFusion, DeterministicForOneOrTwoThreads) {

@@ -10,11 +10,15 @@
 #include <array>
 #include <cmath>
 #include <deque>
+#include <memory>
 #include <sstream>
 
+#include <fmt/format.h>
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include "depth_energy.h"
 #include "depth_terms.h"
 #include "ray_table.h"
 #include "panoscan/core/allocator.h"
@@ -81,7 +85,7 @@ struct DepthProblem {
   // The unit direction of each unknown's pixel, ray(i), from its column and row through the
   // panorama's ray tables: 4 bytes per unknown instead of a 24-byte vector (each evaluation reads
   // three rays per unknown; at H = 1024 the vectors were 48 MB per pass over them).
-  const RayTable* rays = nullptr;
+  std::unique_ptr<const RayTable> rays;
   UninitialisedVector<std::uint16_t> column, row;
   Eigen::Vector3d ray(std::size_t i) const { return (*rays)(column[i], row[i]); }
   Buffer sin_theta;
@@ -91,16 +95,36 @@ struct DepthProblem {
     double smoothed = 0.0, data = 0.0, smoothness = 0.0;
   };
 
-  // Per-unknown partial derivatives of the smoothness term anchored at that unknown, by role. TV and
-  // TSA use only the anchor and its left and upper neighbours; the right/down roles are allocated,
-  // written and gathered for TP alone (for TV and TSA they were zeros, 64 MB at H = 1024).
-  // (The data term's gradient goes straight into the gradient vector, the gather adds the rest.)
-  mutable Buffer g_anchor, g_left, g_right, g_up, g_down;
-  mutable Buffer h_anchor, h_left, h_right, h_up, h_down;
+  // TP's stencil has all four neighbours; TV and TSA use the anchor and its left and upper ones.
   bool uses_right_down() const { return method == DepthFusionMethod::kTp; }
   // Diagonal curvature estimate at the last evaluate(x, grad): data term's Hessian diagonal plus
   // lambda times the smoothness term's (majorised) diagonal; the L-BFGS preconditioner.
   mutable Buffer data_curvature;
+
+  // The unknowns of panorama row v are [row_begin[v], row_begin[v + 1]) (they are numbered in
+  // pixel order, so each row's are consecutive).
+  std::vector<std::size_t> row_begin;
+
+  // A smoothness term anchored at an unknown has partial derivatives with respect to the depths of
+  // its stencil (depth_terms.h Slot): the anchor's own and, by role, its left, right, upper and lower
+  // neighbours'. An unknown's gradient gathers the terms that involve it: its own as anchor, its
+  // right neighbour's (where it is the left one), its lower neighbour's (where it is the upper one),
+  // and for TP its left and upper neighbours' too. evaluate() streams the panorama by rows and keeps
+  // the terms of three rows (the one being finished and the rows above and below it) instead of
+  // five per-unknown arrays per role written in one pass and gathered in another (at H = 1024 those
+  // were 96 MB written and read back per evaluation).
+  struct RowTerms {
+    std::array<std::vector<double>, depth_terms::kSlots> gradient, curvature;  // [role][unknown - row begin]
+  };
+  struct RowScratch {
+    RowTerms rows[3];  // row v in rows[v % 3]
+    // Along the row being computed (index: unknown - row begin): the smoothness terms' values,
+    // whether the anchor's term is summed into the energy, and the data terms.
+    std::vector<double> smoothed, exact;
+    std::vector<char> has_smoothness;
+    std::vector<depth_terms::DataTerm> data;
+  };
+  mutable tbb::enumerable_thread_specific<RowScratch> row_scratch;
 
   std::size_t size() const { return pixel.size(); }
 
@@ -207,75 +231,155 @@ struct DepthProblem {
     }
   }
 
+  // The smoothness terms anchored at every unknown of row v: their derivatives into rows[v % 3]
+  // (by role), their values into scratch.smoothed / exact / has_smoothness. Each term is the same
+  // arithmetic wherever it is computed, so an unknown whose term two blocks of evaluate() need gets
+  // the same bits in both.
+  void smoothness_row(const Buffer& x, int v, RowScratch& scratch) const {
+    using depth_terms::kSlots;
+    const std::size_t begin = row_begin[std::size_t(v)], end = row_begin[std::size_t(v) + 1];
+    RowTerms& terms = scratch.rows[v % 3];
+    for (int k = 0; k < kSlots; ++k)
+      if (terms.gradient[std::size_t(k)].size() < end - begin) {
+        terms.gradient[std::size_t(k)].resize(end - begin);
+        terms.curvature[std::size_t(k)].resize(end - begin);
+      }
+    if (method == DepthFusionMethod::kTsa) {
+      depth_terms::TsaCore group[4];
+      for (std::size_t i = begin; i < end; i += group_size) {
+        const std::size_t count = std::min(group_size, end - i);
+        tsa_terms(x, i, count, group);
+        for (std::size_t j = 0; j < count; ++j) {
+          const std::size_t at = i + j - begin;
+          const bool complete = left[i + j] >= 0 && up[i + j] >= 0;
+          const depth_terms::TsaCore& t = group[j];
+          const int slots[3] = {depth_terms::kAnchor, depth_terms::kLeft, depth_terms::kUp};
+          for (int k = 0; k < 3; ++k) {
+            terms.gradient[std::size_t(slots[k])][at] = complete ? t.gradient[k] : 0.0;
+            terms.curvature[std::size_t(slots[k])][at] = complete ? t.curvature[k] : 0.0;
+          }
+          scratch.has_smoothness[at] = complete;
+          scratch.smoothed[at] = complete ? t.smoothed : 0.0;
+          scratch.exact[at] = complete ? t.exact : 0.0;
+        }
+      }
+      return;
+    }
+    for (std::size_t i = begin; i < end; ++i) {
+      const depth_terms::StencilTerm term = smoothness_term(x, i);
+      for (int k = 0; k < kSlots; ++k) {
+        terms.gradient[std::size_t(k)][i - begin] = term.gradient[std::size_t(k)];
+        terms.curvature[std::size_t(k)][i - begin] = term.curvature[std::size_t(k)];
+      }
+      scratch.has_smoothness[i - begin] = true;
+      scratch.smoothed[i - begin] = term.smoothed;
+      scratch.exact[i - begin] = term.exact;
+    }
+  }
+
+  // The energy of Eq. 5 at x and, if grad, its gradient (and data_curvature). Unknowns are taken
+  // in blocks of whole chunks, each block a task; the energy is summed per chunk of kChunk unknowns
+  // in unknown order and the chunks' sums in chunk order, so the result does not depend on the
+  // blocks or the thread count. A block streams the rows its unknowns lie in, plus the row below
+  // (and for TP the row above) for the terms its last (first) row's gradients need; the terms of
+  // those extra rows are computed again by the block that owns them, with the same bits.
   Parts evaluate(const Buffer& x, Buffer* grad) const {
+    using depth_terms::kAnchor, depth_terms::kLeft, depth_terms::kRight, depth_terms::kUp, depth_terms::kDown;
     const std::size_t n = size();
     const std::size_t chunks = (n + kChunk - 1) / kChunk;
     std::vector<Parts> partial(chunks);
     const bool all_roles = uses_right_down();
     if (grad) grad->resize(n);
-    tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
-      Parts sum;
-      const std::size_t end = std::min(n, (c + 1) * kChunk);
-      depth_terms::DataTerm group[4];
-      depth_terms::TsaCore tsa_group[4];
-      for (std::size_t i = c * kChunk; i < end; ++i) {
-        // Data term of Eq. 5 over all measurements of the pixel, a group of pixels at a time.
-        const std::size_t in_group = (i - c * kChunk) % group_size;
-        if (in_group == 0) data_terms(x, i, std::min(group_size, end - i), group);
-        const depth_terms::DataTerm& data = group[in_group];
-        sum.smoothed += data.smoothed;
-        sum.data += data.exact;
-        if (grad) {
-          (*grad)[i] = data.gradient;
-          data_curvature[i] = data.curvature;
-        }
-        using depth_terms::kAnchor, depth_terms::kLeft, depth_terms::kRight, depth_terms::kUp, depth_terms::kDown;
-        if (method == DepthFusionMethod::kTsa) {
-          // TSA (Eq. 6) straight from the arrays, no stencil assembled: the same arithmetic as
-          // tsa_term (zero where a neighbour is missing; adding a zero term changes no sum).
-          if (in_group == 0) tsa_terms(x, i, std::min(group_size, end - i), tsa_group);
-          if (left[i] >= 0 && up[i] >= 0) {
-            const depth_terms::TsaCore& t = tsa_group[in_group];
-            g_anchor[i] = t.gradient[0], h_anchor[i] = t.curvature[0];
-            g_left[i] = t.gradient[1], h_left[i] = t.curvature[1];
-            g_up[i] = t.gradient[2], h_up[i] = t.curvature[2];
-            sum.smoothed += lambda * t.smoothed;
-            sum.smoothness += t.exact;
-          } else {
-            g_anchor[i] = h_anchor[i] = g_left[i] = h_left[i] = g_up[i] = h_up[i] = 0.0;
-          }
-          continue;
-        }
-        const depth_terms::StencilTerm smooth = smoothness_term(x, i);
-        g_anchor[i] = smooth.gradient[kAnchor], h_anchor[i] = smooth.curvature[kAnchor];
-        g_left[i] = smooth.gradient[kLeft], h_left[i] = smooth.curvature[kLeft];
-        g_up[i] = smooth.gradient[kUp], h_up[i] = smooth.curvature[kUp];
-        if (all_roles) {
-          g_right[i] = smooth.gradient[kRight], h_right[i] = smooth.curvature[kRight];
-          g_down[i] = smooth.gradient[kDown], h_down[i] = smooth.curvature[kDown];
-        }
-        sum.smoothed += lambda * smooth.smoothed;
-        sum.smoothness += smooth.exact;
+    // Blocks of up to 32 chunks, at least 16 blocks where there are chunks enough: each block
+    // computes about two rows' terms twice, a few per cent of the work.
+    const std::size_t chunks_per_block = std::max<std::size_t>(1, std::min<std::size_t>(32, chunks / 16));
+    const std::size_t blocks = (chunks + chunks_per_block - 1) / chunks_per_block;
+    const int last_row = int(row_begin.size()) - 2;
+    std::size_t max_row_size = 0;
+    for (std::size_t v = 0; v + 1 < row_begin.size(); ++v)
+      max_row_size = std::max(max_row_size, row_begin[v + 1] - row_begin[v]);
+    tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
+      const std::size_t own_begin = b * chunks_per_block * kChunk;
+      const std::size_t own_end = std::min(n, (b + 1) * chunks_per_block * kChunk);
+      RowScratch& scratch = row_scratch.local();
+      if (scratch.smoothed.size() < max_row_size) {
+        scratch.smoothed.resize(max_row_size);
+        scratch.exact.resize(max_row_size);
+        scratch.has_smoothness.resize(max_row_size);
+        scratch.data.resize(max_row_size);
       }
-      partial[c] = sum;
+      const int first_row = int(row[own_begin]), end_row = int(row[own_end - 1]);
+      const int from = std::max(0, first_row - (all_roles ? 1 : 0)), to = std::min(last_row, end_row + 1);
+      // Gradient and curvature of the owned unknowns of row v, whose neighbours' terms are all in
+      // the three rows kept.
+      const auto finish_row = [&](int v) {
+        const std::size_t begin = std::max(own_begin, row_begin[std::size_t(v)]);
+        const std::size_t end = std::min(own_end, row_begin[std::size_t(v) + 1]);
+        // Row r's terms of role `slot`, indexed by unknown (rows above and below v only where they exist).
+        const auto role = [&](int r, int slot, bool curvature) {
+          const RowTerms& terms = scratch.rows[r % 3];
+          const std::vector<double>& values =
+              curvature ? terms.curvature[std::size_t(slot)] : terms.gradient[std::size_t(slot)];
+          return values.data() - row_begin[std::size_t(r)];
+        };
+        const double *const g_anchor = role(v, kAnchor, false), *const h_anchor = role(v, kAnchor, true);
+        const double *const g_left = role(v, kLeft, false), *const h_left = role(v, kLeft, true);
+        const double* const g_right = all_roles ? role(v, kRight, false) : nullptr;
+        const double* const h_right = all_roles ? role(v, kRight, true) : nullptr;
+        const bool below = v<last_row, above = v> 0;
+        const double* const g_up = below ? role(v + 1, kUp, false) : nullptr;
+        const double* const h_up = below ? role(v + 1, kUp, true) : nullptr;
+        const double* const g_down = all_roles && above ? role(v - 1, kDown, false) : nullptr;
+        const double* const h_down = all_roles && above ? role(v - 1, kDown, true) : nullptr;
+        for (std::size_t i = begin; i < end; ++i) {
+          double g = g_anchor[i], h = h_anchor[i];
+          if (right[i] >= 0) g += g_left[right[i]], h += h_left[right[i]];
+          if (all_roles && left[i] >= 0) g += g_right[left[i]], h += h_right[left[i]];
+          if (down[i] >= 0) g += g_up[down[i]], h += h_up[down[i]];
+          if (all_roles && up[i] >= 0) g += g_down[up[i]], h += h_down[up[i]];
+          (*grad)[i] = (*grad)[i] + lambda * g;
+          data_curvature[i] += lambda * h;
+        }
+      };
+      std::size_t chunk = own_begin / kChunk;
+      Parts sum;
+      for (int v = from; v <= to; ++v) {
+        smoothness_row(x, v, scratch);
+        // The owned unknowns of row v: data terms (Eq. 5) a group at a time, then the energy sums
+        // in unknown order, data term first, as one pass over each chunk took them.
+        const std::size_t begin = std::max(own_begin, row_begin[std::size_t(v)]);
+        const std::size_t end = std::min(own_end, row_begin[std::size_t(v) + 1]);
+        for (std::size_t i = begin; i < end; i += group_size)
+          data_terms(x, i, std::min(group_size, end - i), &scratch.data[i - row_begin[std::size_t(v)]]);
+        for (std::size_t i = begin; i < end; ++i) {
+          if (i / kChunk != chunk) {
+            partial[chunk] = sum;
+            sum = Parts{};
+            chunk = i / kChunk;
+          }
+          const std::size_t at = i - row_begin[std::size_t(v)];
+          const depth_terms::DataTerm& data = scratch.data[at];
+          sum.smoothed += data.smoothed;
+          sum.data += data.exact;
+          if (grad) {
+            (*grad)[i] = data.gradient;
+            data_curvature[i] = data.curvature;
+          }
+          if (scratch.has_smoothness[at]) {
+            sum.smoothed += lambda * scratch.smoothed[at];
+            sum.smoothness += scratch.exact[at];
+          }
+        }
+        if (grad && v - 1 >= first_row && v - 1 <= end_row) finish_row(v - 1);
+      }
+      if (grad && to == end_row) finish_row(end_row);  // the panorama's last row: nothing below it
+      partial[chunk] = sum;
     });
     Parts total;
     for (const Parts& p : partial) {
       total.smoothed += p.smoothed;
       total.data += p.data;
       total.smoothness += p.smoothness;
-    }
-    if (grad) {
-      // Gather: unknown i is the left neighbour of right[i], the upper neighbour of down[i], ...
-      tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
-        double g = g_anchor[i], h = h_anchor[i];
-        if (right[i] >= 0) g += g_left[std::size_t(right[i])], h += h_left[std::size_t(right[i])];
-        if (all_roles && left[i] >= 0) g += g_right[std::size_t(left[i])], h += h_right[std::size_t(left[i])];
-        if (down[i] >= 0) g += g_up[std::size_t(down[i])], h += h_up[std::size_t(down[i])];
-        if (all_roles && up[i] >= 0) g += g_down[std::size_t(up[i])], h += h_down[std::size_t(up[i])];
-        (*grad)[i] = (*grad)[i] + lambda * g;
-        data_curvature[i] += lambda * h;
-      });
     }
     return total;
   }
@@ -463,6 +567,91 @@ void minimise_lbfgs(const DepthProblem& problem, Buffer& x, const FusionOptions&
   spare.insert(spare.end(), std::make_move_iterator(memory.begin()), std::make_move_iterator(memory.end()));
 }
 
+// The unknowns of Eq. 5 for fuse(): one radial depth per pixel with measurements, their
+// neighbours (uncoupled across depth jumps of more than lambda_a), and the start x (the per-pixel
+// median; "ERP Ave.": the mean).
+void set_up(const PanoramaMeasurements& m, const FusionOptions& options, double lambda, DepthProblem& problem,
+            Buffer& x) {
+  const int width = m.pano.width(), height = m.pano.height;
+  const std::size_t pixels = std::size_t(width) * height;
+  problem.m = &m;
+  problem.method = options.method;
+  problem.lambda = lambda;
+  problem.data_eps = options.data_epsilon_m;
+  problem.tv_eps = options.tv_epsilon_m;
+  problem.tsa_eps = options.tsa_epsilon_m2;
+  std::vector<int> unknown_of_pixel(pixels, -1);
+  for (std::size_t p = 0; p < pixels; ++p)
+    if (m.count(p) > 0) {
+      unknown_of_pixel[p] = int(problem.pixel.size());
+      problem.pixel.push_back(p);
+    }
+  const std::size_t n = problem.size();
+  if (n == 0) log_warn("panorama: no measurements at all; the panorama is empty");
+  problem.rays = std::make_unique<const RayTable>(m.pano);
+  problem.column.resize(n);
+  problem.row.resize(n);
+  // sin(theta) is read by the stencil terms (TV on the cylinder); TSA, evaluated from the rays
+  // alone, does without (16 MB at H = 1024).
+  const bool needs_sin_theta = options.method != DepthFusionMethod::kTsa;
+  if (needs_sin_theta) problem.sin_theta.resize(n);
+  problem.left.resize(n);
+  problem.right.resize(n);
+  problem.up.resize(n);
+  problem.down.resize(n);
+  problem.data_curvature.resize(n);  // written in full by every evaluation before it is read
+  x.resize(n);                       // every element set by the loop below
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const tbb::blocked_range<std::size_t>& range) {
+    std::vector<float> radial;  // one buffer per range, not one allocation per pixel
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const std::size_t p = problem.pixel[i];
+      const int u = int(p % width), v = int(p / width);
+      problem.column[i] = std::uint16_t(u);  // W <= 32768 (WarpOptions::check: H <= 16384)
+      problem.row[i] = std::uint16_t(v);
+      if (needs_sin_theta) problem.sin_theta[i] = std::sin(M_PI * (v + 0.5) / height);
+      problem.left[i] = unknown_of_pixel[std::size_t(v) * width + (u + width - 1) % width];
+      problem.right[i] = unknown_of_pixel[std::size_t(v) * width + (u + 1) % width];
+      problem.up[i] = v > 0 ? unknown_of_pixel[std::size_t(v - 1) * width + u] : -1;
+      problem.down[i] = v + 1 < height ? unknown_of_pixel[std::size_t(v + 1) * width + u] : -1;
+      // Start: the per-pixel median (minimises the L1 data term alone); "ERP Ave.": the mean.
+      radial.clear();
+      double sum = 0.0;
+      for (std::uint64_t k = m.offsets[p]; k < m.offsets[p + 1]; ++k) {
+        radial.push_back(m.samples[k].radial_m);
+        sum += m.samples[k].radial_m;
+      }
+      if (options.method == DepthFusionMethod::kAverage) {
+        x[i] = sum / double(radial.size());
+      } else {
+        std::nth_element(radial.begin(), radial.begin() + std::ptrdiff_t(radial.size() / 2), radial.end());
+        x[i] = radial[radial.size() / 2];
+      }
+    }
+  });
+  std::vector<int>().swap(unknown_of_pixel);  // neighbours found: 8 MB off the solve
+  problem.row_begin.assign(std::size_t(height) + 1, n);
+  for (std::size_t i = n; i-- > 0;) problem.row_begin[problem.row[i]] = i;
+  for (int v = height - 1; v >= 0; --v)  // rows without unknowns begin where the next row does
+    problem.row_begin[std::size_t(v)] =
+        std::min(problem.row_begin[std::size_t(v)], problem.row_begin[std::size_t(v) + 1]);
+  // Neighbours across a depth discontinuity are not coupled: two adjacent pixels whose starting
+  // (median) depths differ by more than lambda_a belong to different surfaces, the same rule that
+  // keeps the warping mesh from bridging them (§4.2). Symmetric in the pair, so left/right and
+  // up/down stay consistent.
+  if (options.max_coupled_depth_jump_m > 0) {
+    const double jump = options.max_coupled_depth_jump_m;
+    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
+      for (int* nb : {&problem.left[i], &problem.right[i], &problem.up[i], &problem.down[i]})
+        if (*nb >= 0 && std::abs(x[i] - x[std::size_t(*nb)]) > jump) *nb = -1;
+    });
+  }
+  if (options.method != DepthFusionMethod::kAverage && n > 0) {
+    problem.radial.resize(m.samples.size());
+    tbb::parallel_for(std::size_t(0), m.samples.size(),
+                      [&](std::size_t k) { problem.radial[k] = m.samples[k].radial_m; });
+  }
+}
+
 }  // namespace
 
 const char* to_string(DepthFusionMethod method) {
@@ -549,82 +738,10 @@ Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
   out.lambda = options.effective_lambda(height, out.mean_count);
 
   DepthProblem problem;
-  problem.m = &m;
-  problem.method = options.method;
-  problem.lambda = out.lambda;
-  problem.data_eps = options.data_epsilon_m;
-  problem.tv_eps = options.tv_epsilon_m;
-  problem.tsa_eps = options.tsa_epsilon_m2;
-  std::vector<int> unknown_of_pixel(pixels, -1);
-  for (std::size_t p = 0; p < pixels; ++p)
-    if (m.count(p) > 0) {
-      unknown_of_pixel[p] = int(problem.pixel.size());
-      problem.pixel.push_back(p);
-    }
+  Buffer x;
+  set_up(m, options, out.lambda, problem, x);
   const std::size_t n = problem.size();
-  if (n == 0) log_warn("panorama: no measurements at all; the panorama is empty");
-  const RayTable rays(m.pano);
-  problem.rays = &rays;
-  problem.column.resize(n);
-  problem.row.resize(n);
-  // sin(theta) is read by the stencil terms (TV on the cylinder); TSA, evaluated from the rays
-  // alone, does without (16 MB at H = 1024).
-  const bool needs_sin_theta = options.method != DepthFusionMethod::kTsa;
-  if (needs_sin_theta) problem.sin_theta.resize(n);
-  problem.left.resize(n);
-  problem.right.resize(n);
-  problem.up.resize(n);
-  problem.down.resize(n);
-  // Written in full by every evaluation before they are read (the gather reads them afterwards).
-  for (auto* g : {&problem.data_curvature, &problem.g_anchor, &problem.g_left, &problem.g_up, &problem.h_anchor,
-                  &problem.h_left, &problem.h_up})
-    g->resize(n);
-  if (problem.uses_right_down())
-    for (auto* g : {&problem.g_right, &problem.g_down, &problem.h_right, &problem.h_down}) g->resize(n);
-  Buffer x(n);  // every element set by the loop below
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const tbb::blocked_range<std::size_t>& range) {
-    std::vector<float> radial;  // one buffer per range, not one allocation per pixel
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const std::size_t p = problem.pixel[i];
-      const int u = int(p % width), v = int(p / width);
-      problem.column[i] = std::uint16_t(u);  // W <= 32768 (WarpOptions::check: H <= 16384)
-      problem.row[i] = std::uint16_t(v);
-      if (needs_sin_theta) problem.sin_theta[i] = std::sin(M_PI * (v + 0.5) / height);
-      problem.left[i] = unknown_of_pixel[std::size_t(v) * width + (u + width - 1) % width];
-      problem.right[i] = unknown_of_pixel[std::size_t(v) * width + (u + 1) % width];
-      problem.up[i] = v > 0 ? unknown_of_pixel[std::size_t(v - 1) * width + u] : -1;
-      problem.down[i] = v + 1 < height ? unknown_of_pixel[std::size_t(v + 1) * width + u] : -1;
-      // Start: the per-pixel median (minimises the L1 data term alone); "ERP Ave.": the mean.
-      radial.clear();
-      double sum = 0.0;
-      for (std::uint64_t k = m.offsets[p]; k < m.offsets[p + 1]; ++k) {
-        radial.push_back(m.samples[k].radial_m);
-        sum += m.samples[k].radial_m;
-      }
-      if (options.method == DepthFusionMethod::kAverage) {
-        x[i] = sum / double(radial.size());
-      } else {
-        std::nth_element(radial.begin(), radial.begin() + std::ptrdiff_t(radial.size() / 2), radial.end());
-        x[i] = radial[radial.size() / 2];
-      }
-    }
-  });
-  std::vector<int>().swap(unknown_of_pixel);  // neighbours found: 8 MB off the solve
-  // Neighbours across a depth discontinuity are not coupled: two adjacent pixels whose starting
-  // (median) depths differ by more than lambda_a belong to different surfaces, the same rule that
-  // keeps the warping mesh from bridging them (§4.2). Symmetric in the pair, so left/right and
-  // up/down stay consistent.
-  if (options.max_coupled_depth_jump_m > 0) {
-    const double jump = options.max_coupled_depth_jump_m;
-    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
-      for (int* nb : {&problem.left[i], &problem.right[i], &problem.up[i], &problem.down[i]})
-        if (*nb >= 0 && std::abs(x[i] - x[std::size_t(*nb)]) > jump) *nb = -1;
-    });
-  }
   if (options.method != DepthFusionMethod::kAverage && n > 0) {
-    problem.radial.resize(m.samples.size());
-    tbb::parallel_for(std::size_t(0), m.samples.size(),
-                      [&](std::size_t k) { problem.radial[k] = m.samples[k].radial_m; });
     // Continuation in the data term's smoothing: a wide eps first (well conditioned: moves the
     // pixels that need to move), then eps / 5 per stage down to data_epsilon_final_m, so that the
     // final solve is close to the exact L1 of Eq. 5 (whose energy is the one reported). Each
@@ -680,4 +797,31 @@ Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
   return out;
 }
 
+namespace detail {
+
+DepthEnergy depth_energy(const PanoramaMeasurements& m, const FusionOptions& options, const std::vector<double>& x) {
+  options.check();
+  if (options.method == DepthFusionMethod::kAverage)
+    throw make_error("depth_energy", "panorama.method", "'ave' has no energy to minimise");
+  const std::size_t pixels = std::size_t(m.pano.width()) * m.pano.height;
+  if (m.offsets.size() != pixels + 1 || m.offsets.back() != m.samples.size())
+    throw make_error("measurements", "offsets", "do not match the panorama size");
+  std::size_t measured = 0;
+  for (std::size_t p = 0; p < pixels; ++p) measured += m.count(p) > 0;
+  const double mean_count = measured > 0 ? double(m.samples.size()) / double(measured) : 0.0;
+  DepthProblem problem;
+  Buffer start;
+  set_up(m, options, options.effective_lambda(m.pano.height, mean_count), problem, start);
+  if (!x.empty() && x.size() != start.size())
+    throw make_error("depth_energy", "x", fmt::format("{} unknowns expected, {} given", start.size(), x.size()));
+  const Buffer at = x.empty() ? start : Buffer(x.begin(), x.end());
+  Buffer gradient;
+  DepthEnergy out;
+  out.smoothed = problem.evaluate(at, &gradient).smoothed;
+  out.x.assign(at.begin(), at.end());
+  out.gradient.assign(gradient.begin(), gradient.end());
+  return out;
+}
+
+}  // namespace detail
 }  // namespace panoscan
