@@ -115,6 +115,7 @@ struct DepthProblem {
   // were 96 MB written and read back per evaluation).
   struct RowTerms {
     std::array<std::vector<double>, depth_terms::kSlots> gradient, curvature;  // [role][unknown - row begin]
+    std::array<std::vector<double>, 3> ray;  // TSA: the unknowns' rays, component by component
   };
   struct RowScratch {
     RowTerms rows[3];  // row v in rows[v % 3]
@@ -190,44 +191,89 @@ struct DepthProblem {
     }
   }
 
-  // The TSA terms (tsa_core) of `count` unknowns from `first` on (count <= group_size) into out,
-  // for those with both a left and an upper neighbour (the others' entries are not written): four
-  // per AVX instruction where the CPU has AVX (depth_terms_avx.cpp), bit for bit tsa_core's values.
-  void tsa_terms(const Buffer& x, std::size_t first, std::size_t count, depth_terms::TsaCore* out) const {
-#if defined(PANOSCAN_DEPTH_TERMS_AVX)
-    if (count == 4 && group_size == 4) {
-      // depth[k][j] and directions[k][c][j]: stencil slot k (anchor, left, up), component c, lane j.
-      double depth[3][4], directions[3][3][4], lane_out[8][4];
-      for (std::size_t j = 0; j < 4; ++j) {
-        const std::size_t i = first + j;
-        // A lane without both neighbours uses the anchor in their place (finite, discarded).
-        const bool complete = left[i] >= 0 && up[i] >= 0;
-        const std::size_t at[3] = {i, complete ? std::size_t(left[i]) : i, complete ? std::size_t(up[i]) : i};
-        for (int k = 0; k < 3; ++k) {
-          depth[k][j] = x[at[k]];
-          const Eigen::Vector3d r = ray(at[k]);
-          for (int c = 0; c < 3; ++c) directions[k][c][j] = r[c];
-        }
-      }
-      depth_terms::detail::tsa_quad_avx(depth[0], directions[0], depth[1], directions[1], depth[2], directions[2],
-                                        tsa_eps, lane_out);
-      for (std::size_t j = 0; j < 4; ++j) {
-        out[j].smoothed = lane_out[0][j];
-        out[j].exact = lane_out[1][j];
-        for (int k = 0; k < 3; ++k) {
-          out[j].gradient[k] = lane_out[2 + k][j];
-          out[j].curvature[k] = lane_out[5 + k][j];
-        }
-      }
-      return;
+  // The rays of row v's unknowns into rows[v % 3].ray: TSA reads each unknown's ray three times,
+  // as anchor and as its right and lower neighbours' left and upper neighbour.
+  void row_rays(int v, RowScratch& scratch) const {
+    const std::size_t begin = row_begin[std::size_t(v)], end = row_begin[std::size_t(v) + 1];
+    std::array<std::vector<double>, 3>& rays_of_row = scratch.rows[v % 3].ray;
+    for (std::vector<double>& component : rays_of_row)
+      if (component.size() < end - begin) component.resize(end - begin);
+    for (std::size_t i = begin; i < end; ++i) {
+      const Eigen::Vector3d r = ray(i);
+      for (int c = 0; c < 3; ++c) rays_of_row[std::size_t(c)][i - begin] = r[c];
     }
+  }
+
+  // smoothness_row for TSA (Eq. 6), straight from the arrays (no stencil assembled), four anchors
+  // per AVX instruction where the CPU has AVX (depth_terms_avx.cpp), else tsa_core per anchor: the
+  // same bits either way. Row v - 1's rays must be in rows[(v - 1) % 3] (row_rays); this row's are
+  // put there. An anchor without both a left and an upper neighbour has no term (zeros).
+  void tsa_row(const Buffer& x, int v, RowScratch& scratch) const {
+    using depth_terms::kAnchor, depth_terms::kLeft, depth_terms::kUp;
+    const std::size_t begin = row_begin[std::size_t(v)], end = row_begin[std::size_t(v) + 1];
+    row_rays(v, scratch);
+    RowTerms& terms = scratch.rows[v % 3];
+    const std::array<std::vector<double>, 3>& here = terms.ray;
+    const std::array<std::vector<double>, 3>* above = v > 0 ? &scratch.rows[(v - 1) % 3].ray : nullptr;
+    const std::size_t above_begin = v > 0 ? row_begin[std::size_t(v) - 1] : 0;
+#if defined(PANOSCAN_DEPTH_TERMS_AVX)
+    const bool quads = group_size == 4;
+#else
+    const bool quads = false;
 #endif
-    for (std::size_t j = 0; j < count; ++j) {
-      const std::size_t i = first + j;
-      const int l = left[i], u = up[i];
-      if (l >= 0 && u >= 0)
-        out[j] = depth_terms::tsa_core(x[i], ray(i), x[std::size_t(l)], ray(std::size_t(l)), x[std::size_t(u)],
-                                       ray(std::size_t(u)), tsa_eps);
+    // depth[k][j] and directions[k][c][j]: stencil slot k (anchor, left, up), component c, lane j;
+    // lane_out[k][j] the k-th of depth_lanes.h's eight values of lane j.
+    double depth[3][4], directions[3][3][4], lane_out[8][4];
+    bool complete[4];
+    for (std::size_t i = begin; i < end; i += 4) {
+      const std::size_t count = std::min<std::size_t>(4, end - i);
+      for (std::size_t j = 0; j < 4; ++j) {
+        // Lanes past the row's end repeat its last anchor; a lane without both neighbours uses the
+        // anchor in their place (finite, discarded).
+        const std::size_t a = i + std::min(j, count - 1);
+        complete[j] = left[a] >= 0 && up[a] >= 0;
+        const std::size_t l = complete[j] ? std::size_t(left[a]) : a, u = complete[j] ? std::size_t(up[a]) : a;
+        const std::array<std::vector<double>, 3>& up_rays = complete[j] ? *above : here;
+        const std::size_t up_at = complete[j] ? u - above_begin : a - begin;
+        depth[0][j] = x[a];
+        depth[1][j] = x[l];
+        depth[2][j] = x[u];
+        for (int c = 0; c < 3; ++c) {
+          directions[0][c][j] = here[std::size_t(c)][a - begin];
+          directions[1][c][j] = here[std::size_t(c)][l - begin];
+          directions[2][c][j] = up_rays[std::size_t(c)][up_at];
+        }
+      }
+#if defined(PANOSCAN_DEPTH_TERMS_AVX)
+      if (quads)
+        depth_terms::detail::tsa_quad_avx(depth[0], directions[0], depth[1], directions[1], depth[2], directions[2],
+                                          tsa_eps, lane_out);
+#endif
+      if (!quads)
+        for (std::size_t j = 0; j < count; ++j) {
+          const auto direction = [&](int k) {
+            return Eigen::Vector3d(directions[k][0][j], directions[k][1][j], directions[k][2][j]);
+          };
+          const depth_terms::TsaCore t = depth_terms::tsa_core(depth[0][j], direction(0), depth[1][j], direction(1),
+                                                               depth[2][j], direction(2), tsa_eps);
+          lane_out[0][j] = t.smoothed;
+          lane_out[1][j] = t.exact;
+          for (int k = 0; k < 3; ++k) {
+            lane_out[2 + k][j] = t.gradient[k];
+            lane_out[5 + k][j] = t.curvature[k];
+          }
+        }
+      const int slots[3] = {kAnchor, kLeft, kUp};
+      for (std::size_t j = 0; j < count; ++j) {
+        const std::size_t at = i + j - begin;
+        for (int k = 0; k < 3; ++k) {
+          terms.gradient[std::size_t(slots[k])][at] = complete[j] ? lane_out[2 + k][j] : 0.0;
+          terms.curvature[std::size_t(slots[k])][at] = complete[j] ? lane_out[5 + k][j] : 0.0;
+        }
+        scratch.has_smoothness[at] = complete[j];
+        scratch.smoothed[at] = complete[j] ? lane_out[0][j] : 0.0;
+        scratch.exact[at] = complete[j] ? lane_out[1][j] : 0.0;
+      }
     }
   }
 
@@ -245,24 +291,7 @@ struct DepthProblem {
         terms.curvature[std::size_t(k)].resize(end - begin);
       }
     if (method == DepthFusionMethod::kTsa) {
-      depth_terms::TsaCore group[4];
-      for (std::size_t i = begin; i < end; i += group_size) {
-        const std::size_t count = std::min(group_size, end - i);
-        tsa_terms(x, i, count, group);
-        for (std::size_t j = 0; j < count; ++j) {
-          const std::size_t at = i + j - begin;
-          const bool complete = left[i + j] >= 0 && up[i + j] >= 0;
-          const depth_terms::TsaCore& t = group[j];
-          const int slots[3] = {depth_terms::kAnchor, depth_terms::kLeft, depth_terms::kUp};
-          for (int k = 0; k < 3; ++k) {
-            terms.gradient[std::size_t(slots[k])][at] = complete ? t.gradient[k] : 0.0;
-            terms.curvature[std::size_t(slots[k])][at] = complete ? t.curvature[k] : 0.0;
-          }
-          scratch.has_smoothness[at] = complete;
-          scratch.smoothed[at] = complete ? t.smoothed : 0.0;
-          scratch.exact[at] = complete ? t.exact : 0.0;
-        }
-      }
+      tsa_row(x, v, scratch);
       return;
     }
     for (std::size_t i = begin; i < end; ++i) {
@@ -341,6 +370,8 @@ struct DepthProblem {
           data_curvature[i] += lambda * h;
         }
       };
+      // TSA reads the rays of the row above the first one (row_rays keeps them for the rows after).
+      if (method == DepthFusionMethod::kTsa && from > 0) row_rays(from - 1, scratch);
       std::size_t chunk = own_begin / kChunk;
       Parts sum;
       for (int v = from; v <= to; ++v) {

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "panoscan/core/allocator.h"
 #include "panoscan/core/error.h"
@@ -352,32 +353,53 @@ PanoramaMeasurements warp_frames(const ScanIndex& scan, const RigTrajectory& tra
                                  "{:.0f}% expected, panorama.min_valid_depth_share): a wrong depth_scale in "
                                  "rig.json, a covered sensor or a scan of empty space?",
                                  100.0 * valid_share, jobs.size(), 100.0 * options.min_valid_depth_share));
-  std::vector<std::atomic<std::uint32_t>> counts(pixels);
-  for (auto& count : counts) count.store(0, std::memory_order_relaxed);
-  tbb::parallel_for(std::size_t(0), chunks.size(), [&](std::size_t c) {
-    for (const FrameSample& sample : chunks[c].samples) counts[sample.pixel].fetch_add(1, std::memory_order_relaxed);
+  // Each chunk's samples are scattered into their pixels' sets without atomic operations: the
+  // chunks are dealt to `groups` groups (chunk c to group c % groups), each group with its own
+  // per-pixel counts and, in the same array, its cursors; a pixel's set takes group 0's samples
+  // first, then group 1's, ... (the sort below makes the order canonical). An atomic counter per
+  // pixel was a locked instruction per sample, which waits until the stores before it are done:
+  // the previous sample's store into the sets, a cache miss, so the misses ran one at a time.
+  const std::size_t groups = std::max<std::size_t>(
+      1, std::min<std::size_t>({chunks.size(), 4, std::size_t(tbb::this_task_arena::max_concurrency())}));
+  std::vector<UninitialisedVector<std::uint32_t>> cursors(groups);
+  tbb::parallel_for(std::size_t(0), groups, [&](std::size_t g) {
+    UninitialisedVector<std::uint32_t>& count = cursors[g];
+    count.assign(pixels, 0);
+    for (std::size_t c = g; c < chunks.size(); c += groups)
+      for (const FrameSample& sample : chunks[c].samples) ++count[sample.pixel];
   });
   out.offsets.assign(pixels + 1, 0);
-  for (std::size_t p = 0; p < pixels; ++p) out.offsets[p + 1] = out.offsets[p] + counts[p].load();
-  out.samples.resize(out.offsets[pixels]);
-  for (auto& count : counts) count.store(0, std::memory_order_relaxed);
-  tbb::parallel_for(std::size_t(0), chunks.size(), [&](std::size_t c) {
-    for (const SampleChunk::Frame& span : chunks[c].frames) {
-      const FrameJob& job = jobs[span.job];
-      for (std::size_t k = span.begin; k < span.end; ++k) {
-        const FrameSample& sample = chunks[c].samples[k];
-        const std::uint32_t slot = counts[sample.pixel].fetch_add(1, std::memory_order_relaxed);
-        PanoramaMeasurement& m = out.samples[out.offsets[sample.pixel] + slot];
-        m.radial_m = sample.radial;
-        m.rgb[0] = sample.rgb[0];
-        m.rgb[1] = sample.rgb[1];
-        m.rgb[2] = sample.rgb[2];
-        m.sensor = std::uint8_t(job.sensor);
-        m.frame = std::uint32_t(job.frame);
-      }
+  for (std::size_t p = 0; p < pixels; ++p) {
+    std::uint32_t in_set = 0;  // a group's cursor: where its first sample goes in the pixel's set
+    for (UninitialisedVector<std::uint32_t>& cursor : cursors) {
+      const std::uint32_t count = cursor[p];
+      cursor[p] = in_set;
+      in_set += count;
     }
-    UninitialisedVector<FrameSample>().swap(chunks[c].samples);  // frees the chunk
+    out.offsets[p + 1] = out.offsets[p] + in_set;
+  }
+  out.samples.resize(out.offsets[pixels]);
+  tbb::parallel_for(std::size_t(0), groups, [&](std::size_t g) {
+    std::uint32_t* const cursor = cursors[g].data();
+    for (std::size_t c = g; c < chunks.size(); c += groups) {
+      const SampleChunk& chunk = chunks[c];
+      for (const SampleChunk::Frame& span : chunk.frames) {
+        const FrameJob& job = jobs[span.job];
+        for (std::size_t k = span.begin; k < span.end; ++k) {
+          const FrameSample& sample = chunk.samples[k];
+          PanoramaMeasurement& m = out.samples[out.offsets[sample.pixel] + cursor[sample.pixel]++];
+          m.radial_m = sample.radial;
+          m.rgb[0] = sample.rgb[0];
+          m.rgb[1] = sample.rgb[1];
+          m.rgb[2] = sample.rgb[2];
+          m.sensor = std::uint8_t(job.sensor);
+          m.frame = std::uint32_t(job.frame);
+        }
+      }
+      UninitialisedVector<FrameSample>().swap(chunks[c].samples);  // frees the chunk
+    }
   });
+  cursors.clear();
   tbb::parallel_for(std::size_t(0), pixels, [&](std::size_t p) {
     auto begin = out.samples.begin() + std::ptrdiff_t(out.offsets[p]);
     auto end = out.samples.begin() + std::ptrdiff_t(out.offsets[p + 1]);
