@@ -48,6 +48,8 @@ struct WarpScratch {
   std::vector<WarpVertex> vertices[2];  // two rows of the frame
   std::vector<char> valid[2];
   std::vector<double> x, y, z, u, v;  // a row's points in the panorama frame and their pixels (SoA)
+  std::vector<double> radial;         // their distances from the panorama's centre
+  std::vector<double> column_factor;  // (x - cx) / fx of each column (the backprojection's division)
   std::vector<FrameSample> samples;
 };
 
@@ -188,33 +190,52 @@ std::size_t warp_frame(const RgbdFrame& frame, const PinholeIntrinsics& intrinsi
   }
   std::vector<FrameSample>& samples = scratch.samples;
   samples.clear();
-  for (auto* row : {&scratch.x, &scratch.y, &scratch.z, &scratch.u, &scratch.v}) row->resize(std::size_t(w));
+  for (auto* row : {&scratch.x, &scratch.y, &scratch.z, &scratch.u, &scratch.v, &scratch.radial})
+    row->resize(std::size_t(w));
   double *const row_x = scratch.x.data(), *const row_y = scratch.y.data(), *const row_z = scratch.z.data();
-  // A row in three passes: the points, their panorama pixels for the whole row at once
-  // (Equirectangular::pixels, SIMD), then the vertices.
+  double* const row_radial = scratch.radial.data();
+  // PinholeIntrinsics::backproject's (x - cx) / fx, once per column instead of once per pixel.
+  scratch.column_factor.resize(std::size_t(w));
+  for (int x = 0; x < w; ++x) scratch.column_factor[std::size_t(x)] = (x - intrinsics.cx) / intrinsics.fx;
+  const double* const column_factor = scratch.column_factor.data();
+  // pano_from_cam's matrix: the products below are Eigen's for `pano_from_cam * point` and
+  // `point.norm()` (translation + ((m0 x + m1 y) + m2 z) per row, sqrt((x x + y y) + z z)), written
+  // out so that the loop has no branch and vectorises.
+  const Eigen::Matrix<double, 3, 4> m = pano_from_cam.matrix().topRows<3>();
+  const double m00 = m(0, 0), m01 = m(0, 1), m02 = m(0, 2), m03 = m(0, 3);
+  const double m10 = m(1, 0), m11 = m(1, 1), m12 = m(1, 2), m13 = m(1, 3);
+  const double m20 = m(2, 0), m21 = m(2, 1), m22 = m(2, 2), m23 = m(2, 3);
+  const double min_depth = options.min_depth_m, max_depth = options.max_depth_m;
+  // A row in three passes: the points and their distances for the whole row, branch free (pixels
+  // without a vertex get a harmless direction for the next pass); their panorama pixels
+  // (Equirectangular::pixels, SIMD); then the vertices.
   auto build_row = [&](int y, WarpVertex* vertices, char* valid) {
+    const float* const depth_row = &frame.depth.data[std::size_t(y) * w];
+    const double row_factor = (y - intrinsics.cy) / intrinsics.fy;
     for (int x = 0; x < w; ++x) {
-      valid[x] = 0;
-      // Pixels without a vertex get a harmless direction for the batched pass.
-      row_x[x] = 1.0, row_y[x] = 0.0, row_z[x] = 0.0;
-      const float z = frame.depth.at(x, y);
-      if (!(z > 0.f) || !std::isfinite(z) || z < options.min_depth_m) continue;
-      if (options.max_depth_m > 0 && z > options.max_depth_m) continue;
-      WarpVertex& vtx = vertices[x];
-      vtx.point = pano_from_cam * intrinsics.backproject(x, y, z);
-      vtx.radial = vtx.point.norm();
-      // Selects, not a branch: a branch on the root waited for its latency at every pixel (a
-      // quarter of this function's time in perf); the comparison is the same.
-      const bool away_from_centre = vtx.radial > 1e-6;
-      valid[x] = char(away_from_centre);
-      row_x[x] = away_from_centre ? vtx.point.x() : 1.0;
-      row_y[x] = away_from_centre ? vtx.point.y() : 0.0;
-      row_z[x] = away_from_centre ? vtx.point.z() : 0.0;
+      const float depth = depth_row[x];
+      // z > 0, finite (z - z is 0 only then) and within [min_depth_m, max_depth_m].
+      const bool in_range = depth > 0.f && depth - depth == 0.f && double(depth) >= min_depth &&
+                            !(max_depth > 0 && double(depth) > max_depth);
+      const double z = in_range ? double(depth) : 1.0;
+      const double cam_x = column_factor[x] * z, cam_y = row_factor * z;
+      const double px = m03 + ((m00 * cam_x + m01 * cam_y) + m02 * z);
+      const double py = m13 + ((m10 * cam_x + m11 * cam_y) + m12 * z);
+      const double pz = m23 + ((m20 * cam_x + m21 * cam_y) + m22 * z);
+      const double radial = std::sqrt((px * px + py * py) + pz * pz);
+      const bool vertex = in_range && radial > 1e-6;
+      valid[x] = char(vertex);
+      row_x[x] = vertex ? px : 1.0;
+      row_y[x] = vertex ? py : 0.0;
+      row_z[x] = vertex ? pz : 0.0;
+      row_radial[x] = radial;
     }
     pano.pixels(std::size_t(w), row_x, row_y, row_z, scratch.u.data(), scratch.v.data());
     for (int x = 0; x < w; ++x) {
       if (!valid[x]) continue;
       WarpVertex& vtx = vertices[x];
+      vtx.point = Eigen::Vector3d(row_x[x], row_y[x], row_z[x]);
+      vtx.radial = row_radial[x];
       vtx.u = scratch.u[std::size_t(x)];
       vtx.v = scratch.v[std::size_t(x)];
       vtx.rgb = &frame.rgb.data[(std::size_t(y) * w + x) * 3];
