@@ -383,6 +383,48 @@ TEST(PanoramaWarp, CountMatchesFrameCoverage) {
   EXPECT_EQ(sizeof(PanoramaMeasurement), 12u);
 }
 
+// The poles, which the rig never sees: one frame of a camera looking straight up (its optical axis
+// the panorama's z axis) at a flat ceiling 2 m above the panorama centre. The triangles around the
+// zenith enclose it and are skipped and counted (their projection would wrap all the way round);
+// every measurement lies on the ceiling (radial depth 2 / cos theta, where the pixel's ray meets
+// the triangle's plane) and every pixel within 18 deg of the zenith is covered, across the seam.
+TEST(PanoramaWarp, AroundAPoleEveryPixelIsCoveredAndTheTrianglesEnclosingItAreSkipped) {
+  const auto dir = scratch() / "pole-scan";
+  RigInfo rig;
+  SensorInfo sensor;
+  sensor.name = "cam0";
+  sensor.intrinsics = PinholeIntrinsics::primesense(64, 48);
+  rig.sensors = {sensor};
+  {
+    ScanWriter writer(dir, rig, true);
+    writer.write_frame(0, 1.0, ImageU8(64, 48, 3, 128), ImageU16(64, 48, 1, std::uint16_t(2.0 * sensor.depth_scale)));
+    writer.commit();
+  }
+  const ScanIndex index = read_scan_index(dir);
+  RigTrajectory looking_up;
+  looking_up.world_from_cam = {{StampedPose{1.0, Rigid3d::Identity()}}};
+  looking_up.ref_from_cam = {Rigid3d::Identity()};
+  WarpOptions options;
+  options.height = 64;
+  const PanoramaMeasurements m = warp_frames(index, looking_up, options);
+  // The optical axis (cx = 31.5, cy = 23.5) meets the centre of a 2x2 block of pixels, on the
+  // diagonal its two triangles share (that edge's volume with the axis is exactly zero): both
+  // enclose the zenith.
+  EXPECT_EQ(m.triangles_skipped_at_poles, 2u);
+  const int width = m.pano.width();
+  for (int v = 0; v < m.pano.height; ++v) {
+    const double theta = M_PI * (v + 0.5) / m.pano.height;
+    for (int u = 0; u < width; ++u) {
+      const std::size_t p = std::size_t(v) * width + u;
+      if (theta < 18.0 * M_PI / 180.0) {
+        EXPECT_GE(m.count(p), 1u) << "u " << u << " v " << v;
+      }
+      for (std::uint64_t k = m.offsets[p]; k < m.offsets[p + 1]; ++k)
+        EXPECT_NEAR(m.samples[k].radial_m, 2.0 / std::cos(theta), 1e-5) << "u " << u << " v " << v;
+    }
+  }
+}
+
 // Eq. 5 with each smoothness term: the optimiser's objective never increases, the exact energy
 // goes down, and the data/smoothness ratio at the solution is reported.
 TEST(PanoramaFusion, EnergyDecreasesForEverySolver) {
