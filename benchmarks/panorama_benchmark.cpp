@@ -6,13 +6,15 @@
 //   PANORAMA_BENCH_EVERY=1 build/benchmarks/panorama_benchmark           # every frame (heavy: ~3.6 GB of measurements)
 //   build/benchmarks/panorama_benchmark --benchmark_filter=Warp          # one part, for a clean peak-memory figure
 //
-// Counters: measurements, measurement_MiB (the CSR sets), peak_rss_MiB (getrusage: the peak of the
-// whole process so far, so run one benchmark per process for a per-part figure), frames.
+// Counters: measurements, measurement_MiB (the CSR sets), peak_rss_MiB (the process's peak resident
+// memory so far; for BM_PanoramaSize the peak while that size ran, see reset_peak_rss), frames.
 #include <sys/resource.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cstdlib>
+#include <fstream>
+#include <string>
 #include <memory>
 
 #include <benchmark/benchmark.h>
@@ -43,10 +45,41 @@ double process_cpu_s() {
          1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
 }
 
+// The process's peak resident memory: VmHWM from /proc/self/status (Linux), which
+// reset_peak_rss() lowers to the current size; getrusage's ru_maxrss elsewhere.
 double peak_rss_mib() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;  // "VmHWM:  123 kB"
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return double(usage.ru_maxrss) / 1024.0;
+}
+
+// The process's resident memory now: VmRSS (Linux; 0 elsewhere).
+double resident_mib() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  return 0.0;
+}
+
+// Linux: sets the peak resident memory to the current one (/proc/self/clear_refs, "5"), so that
+// peak_rss_mib() afterwards is the peak of what ran since, not of the benchmarks before it.
+bool reset_peak_rss() {
+  std::ofstream clear_refs("/proc/self/clear_refs");
+  if (!clear_refs) return false;
+  clear_refs << "5";
+  return bool(clear_refs.flush());
+}
+
+// The measurements that BM_PanoramaFuse's variants share (warped once). BM_PanoramaSize, which runs
+// after them, drops them: its peak memory is then its own run's plus the scan's index.
+std::unique_ptr<PanoramaMeasurements>& fuse_measurements() {
+  static std::unique_ptr<PanoramaMeasurements> m;
+  return m;
 }
 
 struct BenchScan {
@@ -95,7 +128,7 @@ void BM_PanoramaFuse(benchmark::State& state) {
   const BenchScan& scan = bench_scan();
   WarpOptions warp;
   warp.height = 1024;
-  static std::unique_ptr<PanoramaMeasurements> m;
+  std::unique_ptr<PanoramaMeasurements>& m = fuse_measurements();
   if (!m) m = std::make_unique<PanoramaMeasurements>(warp_frames(scan.index, scan.truth, warp));
   FusionOptions fusion;
   fusion.method = DepthFusionMethod(state.range(0));
@@ -124,6 +157,9 @@ void BM_PanoramaSize(benchmark::State& state) {
   fusion.method = DepthFusionMethod::kTsa;
   double warp_s = 0, fuse_s = 0, warp_cpu_s = 0, fuse_cpu_s = 0;
   std::size_t iterations = 0;
+  fuse_measurements().reset();
+  const double resident_before = resident_mib();
+  const bool peak_is_this_run = reset_peak_rss();
   for (auto _ : state) {
     const double c0 = process_cpu_s();
     const auto t0 = std::chrono::steady_clock::now();
@@ -146,7 +182,11 @@ void BM_PanoramaSize(benchmark::State& state) {
   state.counters["warp_cpu_s"] = warp_cpu_s;
   state.counters["fuse_cpu_s"] = fuse_cpu_s;
   state.counters["solver_iterations"] = double(iterations);
+  // The peak while this size ran (where the kernel lets the peak be reset; else the process's),
+  // and what the process held before it (the simulated scan's index, the libraries).
   state.counters["peak_rss_MiB"] = peak_rss_mib();
+  state.counters["peak_is_this_run"] = peak_is_this_run ? 1.0 : 0.0;
+  state.counters["resident_before_MiB"] = resident_before;
 }
 
 void BM_TsdfBaseline(benchmark::State& state) {

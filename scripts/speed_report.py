@@ -249,8 +249,13 @@ def aims(results):
     fuse = counter_of("panorama_benchmark", "BM_PanoramaSize/1024/", "fuse_s")
     row("panorama warping + TSA-L1 at H = 1024 (s)", None if warp is None or fuse is None else warp + fuse, "{:.1f}",
         "<= 5")
-    row("its peak memory (MiB)", counter_of("panorama_benchmark", "BM_PanoramaSize/1024/", "peak_rss_MiB"), "{:.0f}",
-        "<= 1024")
+    # The process's peak while this size ran (the benchmark resets the peak first where Linux lets
+    # it, and drops the fusion benchmarks' measurements), the scan's index and the libraries included.
+    this_run = counter_of("panorama_benchmark", "BM_PanoramaSize/1024/", "peak_is_this_run")
+    row("its peak memory (MiB)" + (", while it ran" if this_run else ", the process's so far"),
+        counter_of("panorama_benchmark", "BM_PanoramaSize/1024/", "peak_rss_MiB"), "{:.0f}", "<= 1024")
+    row("... of which the process held before it (MiB)",
+        counter_of("panorama_benchmark", "BM_PanoramaSize/1024/", "resident_before_MiB"), "{:.0f}", "")
     return lines
 
 
