@@ -11,6 +11,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <fstream>
@@ -45,26 +46,27 @@ double process_cpu_s() {
          1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
 }
 
-// The process's peak resident memory: VmHWM from /proc/self/status (Linux), which
-// reset_peak_rss() lowers to the current size; getrusage's ru_maxrss elsewhere.
-double peak_rss_mib() {
+// A "Vm...:" line of /proc/self/status (Linux), in MiB; -1 where there is none.
+double status_mib(const std::string& key) {
   std::ifstream status("/proc/self/status");
   std::string line;
   while (std::getline(status, line))
-    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;  // "VmHWM:  123 kB"
+    if (line.rfind(key + ":", 0) == 0) return std::stod(line.substr(key.size() + 1)) / 1024.0;  // "VmHWM:  123 kB"
+  return -1.0;
+}
+
+// The process's peak resident memory: VmHWM, which reset_peak_rss() lowers to the current size;
+// getrusage's ru_maxrss where there is no /proc.
+double peak_rss_mib() {
+  const double hwm = status_mib("VmHWM");
+  if (hwm >= 0) return hwm;
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return double(usage.ru_maxrss) / 1024.0;
 }
 
-// The process's resident memory now: VmRSS (Linux; 0 elsewhere).
-double resident_mib() {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  while (std::getline(status, line))
-    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-  return 0.0;
-}
+// The process's resident memory now (VmRSS; 0 where there is no /proc).
+double resident_mib() { return std::max(0.0, status_mib("VmRSS")); }
 
 // Linux: sets the peak resident memory to the current one (/proc/self/clear_refs, "5"), so that
 // peak_rss_mib() afterwards is the peak of what ran since, not of the benchmarks before it.

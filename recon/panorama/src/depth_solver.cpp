@@ -104,6 +104,7 @@ struct DepthProblem {
   // The unknowns of panorama row v are [row_begin[v], row_begin[v + 1]) (they are numbered in
   // pixel order, so each row's are consecutive).
   std::vector<std::size_t> row_begin;
+  std::size_t max_row_size = 0;  // the most unknowns in one row
 
   // A smoothness term anchored at an unknown has partial derivatives with respect to the depths of
   // its stencil (depth_terms.h Slot): the anchor's own and, by role, its left, right, upper and lower
@@ -324,9 +325,6 @@ struct DepthProblem {
     const std::size_t chunks_per_block = std::max<std::size_t>(1, std::min<std::size_t>(32, chunks / 16));
     const std::size_t blocks = (chunks + chunks_per_block - 1) / chunks_per_block;
     const int last_row = int(row_begin.size()) - 2;
-    std::size_t max_row_size = 0;
-    for (std::size_t v = 0; v + 1 < row_begin.size(); ++v)
-      max_row_size = std::max(max_row_size, row_begin[v + 1] - row_begin[v]);
     tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
       const std::size_t own_begin = b * chunks_per_block * kChunk;
       const std::size_t own_end = std::min(n, (b + 1) * chunks_per_block * kChunk);
@@ -665,6 +663,9 @@ void set_up(const PanoramaMeasurements& m, const FusionOptions& options, double 
   for (int v = height - 1; v >= 0; --v)  // rows without unknowns begin where the next row does
     problem.row_begin[std::size_t(v)] =
         std::min(problem.row_begin[std::size_t(v)], problem.row_begin[std::size_t(v) + 1]);
+  for (int v = 0; v < height; ++v)
+    problem.max_row_size =
+        std::max(problem.max_row_size, problem.row_begin[std::size_t(v) + 1] - problem.row_begin[std::size_t(v)]);
   // Neighbours across a depth discontinuity are not coupled: two adjacent pixels whose starting
   // (median) depths differ by more than lambda_a belong to different surfaces, the same rule that
   // keeps the warping mesh from bridging them (§4.2). Symmetric in the pair, so left/right and
@@ -753,19 +754,29 @@ void FusionOptions::check(const std::string& origin) const {
   if (lambda_reference_height < 1) throw make_error(origin, "panorama.lambda_reference_height", "must be >= 1");
 }
 
+namespace {
+
+// The mean number of measurements per pixel that has any (FusionOptions::effective_lambda's count),
+// after checking that the CSR offsets fit the panorama.
+double checked_mean_count(const PanoramaMeasurements& m) {
+  const std::size_t pixels = std::size_t(m.pano.width()) * m.pano.height;
+  if (m.offsets.size() != pixels + 1 || m.offsets.back() != m.samples.size())
+    throw make_error("measurements", "offsets", "do not match the panorama size");
+  std::size_t measured = 0;
+  for (std::size_t p = 0; p < pixels; ++p) measured += m.count(p) > 0;
+  return measured > 0 ? double(m.samples.size()) / double(measured) : 0.0;
+}
+
+}  // namespace
+
 Panorama fuse(const PanoramaMeasurements& m, const FusionOptions& options) {
   options.check();
   const int width = m.pano.width(), height = m.pano.height;
-  const std::size_t pixels = std::size_t(width) * height;
-  if (m.offsets.size() != pixels + 1 || m.offsets.back() != m.samples.size())
-    throw make_error("measurements", "offsets", "do not match the panorama size");
   Panorama out;
   out.pano = m.pano;
   out.world_from_pano = m.world_from_pano;
   out.method = to_string(options.method);
-  std::size_t measured = 0;
-  for (std::size_t p = 0; p < pixels; ++p) measured += m.count(p) > 0;
-  out.mean_count = measured > 0 ? double(m.samples.size()) / double(measured) : 0.0;
+  out.mean_count = checked_mean_count(m);
   out.lambda = options.effective_lambda(height, out.mean_count);
 
   DepthProblem problem;
@@ -834,15 +845,9 @@ DepthEnergy depth_energy(const PanoramaMeasurements& m, const FusionOptions& opt
   options.check();
   if (options.method == DepthFusionMethod::kAverage)
     throw make_error("depth_energy", "panorama.method", "'ave' has no energy to minimise");
-  const std::size_t pixels = std::size_t(m.pano.width()) * m.pano.height;
-  if (m.offsets.size() != pixels + 1 || m.offsets.back() != m.samples.size())
-    throw make_error("measurements", "offsets", "do not match the panorama size");
-  std::size_t measured = 0;
-  for (std::size_t p = 0; p < pixels; ++p) measured += m.count(p) > 0;
-  const double mean_count = measured > 0 ? double(m.samples.size()) / double(measured) : 0.0;
   DepthProblem problem;
   Buffer start;
-  set_up(m, options, options.effective_lambda(m.pano.height, mean_count), problem, start);
+  set_up(m, options, options.effective_lambda(m.pano.height, checked_mean_count(m)), problem, start);
   if (!x.empty() && x.size() != start.size())
     throw make_error("depth_energy", "x", fmt::format("{} unknowns expected, {} given", start.size(), x.size()));
   const Buffer at = x.empty() ? start : Buffer(x.begin(), x.end());
