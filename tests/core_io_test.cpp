@@ -168,7 +168,7 @@ TEST_F(IoTest, Png16BitRoundTripIsExact) {
   EXPECT_EQ(back.data, image.data);
 }
 
-// The encoder's filters (Sub and none at levels 0-1, a choice per row from 2 on) and both sample
+// The encoder's filters (none at levels 0-1, a choice per row among all five from 2 on) and both sample
 // formats on an image with flat areas, gradients and noise, as a rendered frame has.
 TEST_F(IoTest, EncodedPngsDecodeExactlyAtEveryLevel) {
   ImageU8 rgb(37, 23, 3), grey(37, 23, 1);
