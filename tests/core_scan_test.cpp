@@ -815,8 +815,8 @@ TEST(DepthUnits, MetresToUnitsRoundsAndInvalidatesBadValues) {
   const ImageU16 units = depth_to_png_units(depth, 5000.0);
   EXPECT_EQ(units.width, 10);
   EXPECT_EQ(units.channels, 1);
-  const std::vector<std::uint16_t> expected = {5000, 0 /* 0.45 units rounds to 0 */, 1 /* 0.55 */, 0, 0, 0, 0, 65535, 0,
-                                               12500};
+  const UninitialisedVector<std::uint16_t> expected = {
+      5000, 0 /* 0.45 units rounds to 0 */, 1 /* 0.55 */, 0, 0, 0, 0, 65535, 0, 12500};
   EXPECT_EQ(units.data, expected);
 
   const ImageF32 metres = depth_from_png_units(units, 5000.0);
@@ -846,7 +846,7 @@ TEST(DepthUnits, RoundsAsLroundAtAndAroundHalfUnits) {
     values.push_back(float(unit) / 1000.0f);
   }
   ImageF32 depth(int(values.size()), 1, 1);
-  depth.data = values;
+  depth.data.assign(values.begin(), values.end());
   for (const double scale : {1000.0, 5000.0, 1.0 / 0.3}) {
     const ImageU16 units = depth_to_png_units(depth, scale);
     for (std::size_t i = 0; i < values.size(); ++i) {

@@ -679,7 +679,8 @@ TEST(LoadScene, ReadsGltfWithEmbeddedTexture) {
   ASSERT_EQ(scene.textures.size(), 1u);
   EXPECT_EQ(scene.textures[0].width, 3);
   EXPECT_EQ(scene.textures[0].height, 2);
-  EXPECT_TRUE(scene.textures[0].rgb == image.data);
+  EXPECT_TRUE(
+      std::equal(scene.textures[0].rgb.begin(), scene.textures[0].rgb.end(), image.data.begin(), image.data.end()));
   ASSERT_EQ(scene.materials.size(), 1u);
   EXPECT_EQ(scene.materials[0].texture, 0);
 }

@@ -417,7 +417,7 @@ TEST(Simulator, FramesCarryNormalsAndMaterialIdsOfTheHitTriangles) {
   scene.mesh.triangle_material.clear();
   const Simulator unpainted(scene, 0, ground_truth_options());
   const SimulatedFrame frame = unpainted.render_frame(unpainted.schedule()[1][3]);
-  EXPECT_EQ(frame.material_id.data, std::vector<std::int32_t>(frame.triangle_id.data.size(), -1));
+  EXPECT_EQ(frame.material_id.data, UninitialisedVector<std::int32_t>(frame.triangle_id.data.size(), -1));
   EXPECT_GT(std::count_if(frame.triangle_id.data.begin(), frame.triangle_id.data.end(), [](int t) { return t >= 0; }),
             0);
 

@@ -95,7 +95,7 @@ void export_scene(const Scene& scene, const fs::path& out_dir) {
   for (std::size_t i = 0; i < scene.textures.size(); ++i) {
     const Texture& texture = scene.textures[i];
     ImageU8 image(texture.width, texture.height, 3);
-    image.data = texture.rgb;
+    image.data.assign(texture.rgb.begin(), texture.rgb.end());
     write_png(out_dir / "textures" / (texture_names[i] + ".png"), image, 6);
   }
 

@@ -284,7 +284,7 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
   // float (double carries more than twice float's precision), and unlike it vectorises.
   // Computed rows in parallel, before the model (whose lookups reach into neighbouring rows); it was a
   // serial pass between two parallel ones.
-  ImageF32 inverse_depth(width, height, 1, 0.0f);
+  ImageF32 inverse_depth = ImageF32::uninitialised(width, height, 1);  // every pixel written below
   const double min_depth = options.min_depth_m, max_depth = options.max_depth_m;
   tbb::parallel_for(tbb::blocked_range<int>(0, height, 16), [&](const tbb::blocked_range<int>& rows) {
     const std::size_t end = std::size_t(rows.end()) * width;

@@ -36,7 +36,7 @@ Texture texture_from_image(const ImageU8& image, const std::string& name) {
   texture.name = name;
   texture.width = image.width;
   texture.height = image.height;
-  texture.rgb = image.data;
+  texture.rgb.assign(image.data.begin(), image.data.end());
   return texture;
 }
 
