@@ -13,6 +13,8 @@ Runs build/benchmarks/<name> --benchmark_format=json for each benchmark program 
     frames x pixels per second) against bare Embree's 8-ray packets, and that run's stage
     breakdown; our registration methods against PCL's and Open3D's GICP on the
     same clouds, panorama fusion (warping + optimisation) against the TSDF baseline;
+  - issue 20's absolute aims; the panorama at H = 1024 also runs alone in three more processes
+    (<out>/panorama_repeat<k>.json), and its aim is read from their median;
   - growth: each benchmark family with several arguments (frames, resolution, panorama size, points)
     as a table of real time against its arguments;
   - every benchmark's real time and counters.
@@ -30,6 +32,7 @@ import sys
 
 PROGRAMS = ["render_benchmark", "eval_benchmark", "tracking_benchmark", "panorama_benchmark",
             "registration_benchmark"]
+PANORAMA_REPEATS = 3  # processes that run only the panorama at H = 1024 (issue 20 item 4)
 
 
 def cpu_model():
@@ -245,15 +248,30 @@ def aims(results):
     brute = counter_of("tracking_benchmark", "BM_Frontend/640/16/0/", "matching_ms_per_frame")
     row("its matching step, by projection / brute force (time ratio)",
         guided / brute if guided is not None and brute else None, "{:.2f}", "")
+    # Item 4 from three processes of their own, each running only this size (panorama_repeats): the
+    # median and the range. A single run of it varied 4.6-5.7 s on the 2-core VM with the same code,
+    # with the VM's speed and with what ran before it in the process (the size sweep's run follows
+    # the fusion benchmarks and the smaller sizes, whose freed memory the VM has taken back).
+    repeats = [r for r in results.get("panorama_repeats", []) if "warp_s" in r and "fuse_s" in r]
+    totals = sorted(r["warp_s"] + r["fuse_s"] for r in repeats)
+    if totals:
+        median = totals[len(totals) // 2] if len(totals) % 2 else 0.5 * (totals[len(totals) // 2 - 1] +
+                                                                          totals[len(totals) // 2])
+        lines.append(f"| panorama warping + TSA-L1 at H = 1024, median of {len(totals)} processes (s) | "
+                     f"{median:.2f} ({totals[0]:.2f}-{totals[-1]:.2f}) | <= 5 |")
+        lines.append(f"| ... their peak memory, the largest (MiB) | "
+                     f"{max(r.get('peak_rss_MiB', 0) for r in repeats):.0f} | <= 1024 |")
+    else:
+        row("panorama warping + TSA-L1 at H = 1024, median of separate processes (s)", None, "{}", "<= 5")
     warp = counter_of("panorama_benchmark", "BM_PanoramaSize/1024/", "warp_s")
     fuse = counter_of("panorama_benchmark", "BM_PanoramaSize/1024/", "fuse_s")
-    row("panorama warping + TSA-L1 at H = 1024 (s)", None if warp is None or fuse is None else warp + fuse, "{:.1f}",
-        "<= 5")
+    row("the same in the size sweep, one run (s)", None if warp is None or fuse is None else warp + fuse, "{:.1f}",
+        "")
     # The process's peak while this size ran (the benchmark resets the peak first where Linux lets
     # it, and drops the fusion benchmarks' measurements), the scan's index and the libraries included.
     this_run = counter_of("panorama_benchmark", "BM_PanoramaSize/1024/", "peak_is_this_run")
     row("its peak memory (MiB)" + (", while it ran" if this_run else ", the process's so far"),
-        counter_of("panorama_benchmark", "BM_PanoramaSize/1024/", "peak_rss_MiB"), "{:.0f}", "<= 1024")
+        counter_of("panorama_benchmark", "BM_PanoramaSize/1024/", "peak_rss_MiB"), "{:.0f}", "")
     row("... of which the process held before it (MiB)",
         counter_of("panorama_benchmark", "BM_PanoramaSize/1024/", "resident_before_MiB"), "{:.0f}", "")
     return lines
@@ -287,6 +305,15 @@ def main():
             continue
         print(f"running {program} ...", file=sys.stderr)
         results[program] = run_program(path, os.path.join(args.out, program + ".json"), args.filter)["benchmarks"]
+        if program == "panorama_benchmark" and not args.filter:
+            # Issue 20 item 4 again in processes of its own (aims() says why): the median of three.
+            repeats = []
+            for k in range(PANORAMA_REPEATS):
+                print(f"running {program} BM_PanoramaSize/1024 alone ({k + 1} of {PANORAMA_REPEATS}) ...",
+                      file=sys.stderr)
+                repeats += find(run_program(path, os.path.join(args.out, f"panorama_repeat{k + 1}.json"),
+                                            "BM_PanoramaSize/1024/")["benchmarks"], "BM_PanoramaSize/1024/")
+            results["panorama_repeats"] = repeats
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     md = [f"# Speed report, {now}", "",
           f"Machine: {cpu_model()}, {os.cpu_count()} hardware threads. "
