@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <tuple>
 #include <iostream>
@@ -286,9 +287,20 @@ TEST(PanoramaTerms, DataTermPairAndQuadAreBitIdenticalToDataTerm) {
     EXPECT_TRUE(bits_equal(pair[1], reference[1])) << trial;
 #if defined(PANOSCAN_DEPTH_TERMS_AVX)
     if (!__builtin_cpu_supports("avx")) continue;
+    // As the solver lays them out: the four sets one after the other, then as many floats as the
+    // largest set has, which the lanes read past their ends and must mask off (NaN here, so that a
+    // value that leaked into a sum would show).
+    std::vector<float> layout;
+    std::size_t largest = 0, at[5] = {0, 0, 0, 0, 0};
+    for (int j = 0; j < 4; ++j) {
+      layout.insert(layout.end(), sets[j].begin(), sets[j].end());
+      at[j + 1] = layout.size();
+      largest = std::max(largest, sets[j].size());
+    }
+    layout.resize(layout.size() + largest, std::numeric_limits<float>::quiet_NaN());
     const float* begins[4];
     const float* ends[4];
-    for (int j = 0; j < 4; ++j) begins[j] = sets[j].data(), ends[j] = sets[j].data() + sets[j].size();
+    for (int j = 0; j < 4; ++j) begins[j] = layout.data() + at[j], ends[j] = layout.data() + at[j + 1];
     depth_terms::DataTerm quad[4];
     depth_terms::data_term_quad(depth, begins, ends, eps, quad);
     for (int j = 0; j < 4; ++j) EXPECT_TRUE(bits_equal(quad[j], reference[j])) << trial << " lane " << j;

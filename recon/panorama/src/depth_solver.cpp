@@ -75,8 +75,10 @@ std::array<double, K> chunked_sums(std::size_t n, const F& f) {
 // The unknowns: one radial depth per pixel with at least one measurement.
 struct DepthProblem {
   const PanoramaMeasurements* m = nullptr;
-  // The measurements' radial depths in CSR order (m->offsets index it): the data term reads 4
-  // bytes per measurement instead of 12 (at H = 1024, 69 MB instead of 207 MB per evaluation).
+  // The measurements' radial depths in CSR order (m->offsets index it), then as many zeros as the
+  // largest set has measurements (data_term_quad reads that far past a set's end):
+  // the data term reads 4 bytes per measurement instead of 12 (at H = 1024, 69 MB instead of 207 MB
+  // per evaluation).
   UninitialisedVector<float> radial;
   DepthFusionMethod method = DepthFusionMethod::kTsa;
   double lambda = 0.0;
@@ -678,9 +680,16 @@ void set_up(const PanoramaMeasurements& m, const FusionOptions& options, double 
     });
   }
   if (options.method != DepthFusionMethod::kAverage && n > 0) {
-    problem.radial.resize(m.samples.size());
+    // As many zeros after the last measurement as the largest set has measurements: data_term_quad
+    // loads every lane up to the longest of its four sets without a test (the values past a lane's
+    // own set are masked off), so the last quad's lanes may read up to that far past the end.
+    std::size_t largest_set = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      largest_set = std::max<std::size_t>(largest_set, m.offsets[problem.pixel[i] + 1] - m.offsets[problem.pixel[i]]);
+    problem.radial.resize(m.samples.size() + largest_set);
     tbb::parallel_for(std::size_t(0), m.samples.size(),
                       [&](std::size_t k) { problem.radial[k] = m.samples[k].radial_m; });
+    std::fill(problem.radial.begin() + std::ptrdiff_t(m.samples.size()), problem.radial.end(), 0.0f);
   }
 }
 

@@ -118,13 +118,16 @@ inline void data_term_pair(double depth0, const float* begin0, const float* end0
 namespace detail {
 // depth_terms_avx.cpp: data_term of four pixels, lane j pixel j (its measurements
 // [begin[j], end[j])); sums[k][j] is DataTerm's k-th field (smoothed, exact, gradient, curvature)
-// of lane j. Compiled with -mavx: call only where the CPU has it.
+// of lane j. Compiled with -mavx: call only where the CPU has it. Every lane loads
+// begin[j][0 .. longest - 1], longest the largest set: the floats past a lane's own end must be
+// readable (their values, whatever they are, are masked off).
 void data_term_quad_avx(const double depth[4], const float* const begin[4], const float* const end[4], double eps,
                         double sums[4][4]);
 }  // namespace detail
 
 // data_term of four pixels at once, one per lane of each AVX instruction (the solver's loop where
 // the CPU has AVX): every pixel's value is data_term's bit for bit (depth_terms_avx.cpp says why).
+// Reads up to the largest set's size past each begin (detail::data_term_quad_avx).
 inline void data_term_quad(const double depth[4], const float* const begin[4], const float* const end[4], double eps,
                            DataTerm out[4]) {
   double sums[4][4];

@@ -28,12 +28,12 @@ void data_term_quad_avx(const double depth[4], const float* const begin[4], cons
           curvature = _mm256_setzero_pd();
   const __m256d count_v = _mm256_set_pd(double(count[3]), double(count[2]), double(count[1]), double(count[0]));
   // The lanes are assembled in registers: four scalar stores read back as one vector would stall
-  // (no store-to-load forwarding), which made this loop slower than the SSE2 pairs.
-  const auto at = [&](int j, Index k) { return k < count[j] ? begin[j][k] : 0.f; };
+  // (no store-to-load forwarding), which made this loop slower than the SSE2 pairs. A lane past its
+  // set still loads (the caller keeps those floats readable) and is masked off: the test per lane
+  // and step that chose 0 instead was mispredicted where each lane's set ended.
   for (Index k = 0; k < longest; ++k) {
-    // A lane past its set reads 0 (finite) and is masked off.
     const __m256d mask = _mm256_cmp_pd(_mm256_set1_pd(double(k)), count_v, _CMP_LT_OQ);
-    const __m256d z = _mm256_cvtps_pd(_mm_set_ps(at(3, k), at(2, k), at(1, k), at(0, k)));
+    const __m256d z = _mm256_cvtps_pd(_mm_set_ps(begin[3][k], begin[2][k], begin[1][k], begin[0][k]));
     const __m256d r = _mm256_sub_pd(depth_v, z);
     const __m256d s = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(r, r), eps2_v));
     smoothed = _mm256_add_pd(smoothed, _mm256_and_pd(mask, _mm256_sub_pd(s, eps_v)));
