@@ -331,14 +331,32 @@ Renderer::Renderer(const Scene& scene) : impl_(std::make_unique<Impl>(scene)) {
 
 Renderer::~Renderer() = default;
 
-RenderedView Renderer::allocate(const PinholeIntrinsics& k, const RenderRequest& request) {
+namespace {
+
+// A view's images, `filled` with the values of "nothing hit" (depth, incidence, colour and normals
+// 0, triangle -1), or else left uninitialised for a caller that renders every row: render_rows
+// copies every pixel of depth, incidence, triangle ids and (if requested) normals, and of the colour
+// unless the request has none (then it stays black, so it is filled either way). The zero fill was a
+// pass over 5 MB per 640x480 frame.
+RenderedView make_view(const PinholeIntrinsics& k, const RenderRequest& request, bool filled) {
+  const auto image = [&](auto type, int channels, auto nothing) {
+    using ImageT = decltype(type);
+    return filled ? ImageT(k.width, k.height, channels, nothing) : ImageT::uninitialised(k.width, k.height, channels);
+  };
   RenderedView view;
-  view.depth = ImageF32(k.width, k.height, 1, 0.f);
-  view.rgb = ImageU8(k.width, k.height, 3, 0);
-  view.incidence_cos = ImageF32(k.width, k.height, 1, 0.f);
-  view.triangle_id = ImageI32(k.width, k.height, 1, -1);
-  if (request.normals) view.normal_cam = ImageF32(k.width, k.height, 3, 0.f);
+  view.depth = image(ImageF32{}, 1, 0.f);
+  view.rgb =
+      filled || !request.colour ? ImageU8(k.width, k.height, 3, 0) : ImageU8::uninitialised(k.width, k.height, 3);
+  view.incidence_cos = image(ImageF32{}, 1, 0.f);
+  view.triangle_id = image(ImageI32{}, 1, -1);
+  if (request.normals) view.normal_cam = image(ImageF32{}, 3, 0.f);
   return view;
+}
+
+}  // namespace
+
+RenderedView Renderer::allocate(const PinholeIntrinsics& k, const RenderRequest& request) {
+  return make_view(k, request, true);
 }
 
 namespace {
@@ -893,27 +911,9 @@ RenderedView Renderer::render_per_pixel(const Rigid3d& world_from_cam, const Pin
   return out;
 }
 
-namespace {
-
-// The images of a view whose every row render_rows writes (render() renders them all), left
-// uninitialised: render_rows copies every pixel of depth, incidence, triangle ids and (if requested)
-// normals, and of the colour unless the request has none (then it stays black, as allocate() makes
-// it). Their zero fill was a pass over 5 MB per 640x480 frame.
-RenderedView allocate_for_all_rows(const PinholeIntrinsics& k, const RenderRequest& request) {
-  RenderedView view;
-  view.depth = ImageF32::uninitialised(k.width, k.height, 1);
-  view.rgb = request.colour ? ImageU8::uninitialised(k.width, k.height, 3) : ImageU8(k.width, k.height, 3, 0);
-  view.incidence_cos = ImageF32::uninitialised(k.width, k.height, 1);
-  view.triangle_id = ImageI32::uninitialised(k.width, k.height, 1);
-  if (request.normals) view.normal_cam = ImageF32::uninitialised(k.width, k.height, 3);
-  return view;
-}
-
-}  // namespace
-
 RenderedView Renderer::render(const Rigid3d& world_from_cam, const PinholeIntrinsics& intrinsics,
                               const RenderRequest& request, RenderTimes* times) const {
-  RenderedView view = allocate_for_all_rows(intrinsics, request);
+  RenderedView view = make_view(intrinsics, request, /*filled=*/false);  // every row rendered below
   tbb::parallel_for(tbb::blocked_range<int>(0, intrinsics.height, 8), [&](const tbb::blocked_range<int>& rows) {
     render_rows(world_from_cam, intrinsics, rows.begin(), rows.end(), view, request, times);
   });
