@@ -18,6 +18,7 @@
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
+#include "panoscan/core/cpu_features.h"
 #include "panoscan/core/version.h"
 #include "commands.h"
 
@@ -337,6 +338,11 @@ int main(int argc, char** argv) {
                         environment("OMP_WAIT_POLICY"), environment("GLIBC_TUNABLES")));
 
   try {
+    // Read before any kernel asks, so that a bad value is reported as such rather than mid-stage.
+    const cpu::Isa isa = cpu::dispatched_isa();
+    const std::string embree_config = cpu::embree_device_config();
+    log_debug(fmt::format("kernels (core/cpu_features.h): PANOSCAN_CPU={}, dispatching up to {}; Embree's device: '{}'",
+                          environment("PANOSCAN_CPU"), cpu::isa_name(isa), embree_config));
     if (*scene_list) {
       run_scene_list();
     } else if (*scene_export) {

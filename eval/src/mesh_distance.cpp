@@ -19,6 +19,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "panoscan/core/cpu_features.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/geometry.h"
 
@@ -118,7 +119,7 @@ MeshDistance::MeshDistance(const TriangleMesh& mesh, const std::string& origin) 
     m.area += triangle_area(m.triangles[t]);
   }
 
-  m.device = rtcNewDevice(nullptr);
+  m.device = rtcNewDevice(cpu::embree_device_config().c_str());
   if (!m.device) throw make_error(origin, "", "cannot create an Embree device");
   m.scene = rtcNewScene(m.device);
   // Robust mode: occlusion rays do not slip through shared edges (visibility of samples).

@@ -297,7 +297,7 @@ struct Renderer::Impl {
 
 Renderer::Renderer(const Scene& scene) : impl_(std::make_unique<Impl>(scene)) {
   scene.check("<scene " + scene.name + ">");
-  impl_->device = rtcNewDevice(nullptr);
+  impl_->device = rtcNewDevice(cpu::embree_device_config().c_str());
   if (!impl_->device)
     throw Error("Embree: cannot create a device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
   impl_->rtc_scene = rtcNewScene(impl_->device);

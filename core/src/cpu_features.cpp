@@ -1,0 +1,59 @@
+#include "panoscan/core/cpu_features.h"
+
+#include <cstdlib>
+
+#include "panoscan/core/error.h"
+
+namespace panoscan::cpu {
+
+namespace {
+
+Isa read_cap() {
+  const char* value = std::getenv("PANOSCAN_CPU");
+  if (value == nullptr) return Isa::kAvx512;
+  const std::string name = value;
+  if (name.empty() || name == "native" || name == "avx512") return Isa::kAvx512;
+  if (name == "avx2") return Isa::kAvx2;
+  if (name == "avx") return Isa::kAvx;
+  if (name == "sse2") return Isa::kSse2;
+  throw make_error("environment", "PANOSCAN_CPU", "'" + name + "' is not one of native, avx512, avx2, avx, sse2");
+}
+
+}  // namespace
+
+Isa isa_cap() {
+  static const Isa cap = read_cap();
+  return cap;
+}
+
+const char* isa_name(Isa isa) {
+  switch (isa) {
+    case Isa::kSse2: return "sse2";
+    case Isa::kAvx: return "avx";
+    case Isa::kAvx2: return "avx2";
+    case Isa::kAvx512: return "avx512";
+  }
+  return "?";
+}
+
+Isa dispatched_isa() {
+  if (has_avx512dq()) return Isa::kAvx512;
+  if (has_avx2()) return Isa::kAvx2;
+  if (has_avx()) return Isa::kAvx;
+  return Isa::kSse2;
+}
+
+std::string embree_device_config() {
+  static const std::string config = [] {
+    const char* value = std::getenv("PANOSCAN_EMBREE_ISA");
+    if (value == nullptr || *value == '\0' || std::string(value) == "native") return std::string();
+    // Embree 3's names for its kernels; it ignores a name it does not know, so they are checked here.
+    for (const char* isa : {"sse2", "sse4.2", "avx", "avx2", "avx512"})
+      if (std::string(value) == isa) return "max_isa=" + std::string(value);
+    throw make_error("environment", "PANOSCAN_EMBREE_ISA",
+                     "'" + std::string(value) + "' is not one of native, avx512, avx2, avx, sse4.2, sse2");
+  }();
+  return config;
+}
+
+}  // namespace panoscan::cpu
