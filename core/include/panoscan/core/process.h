@@ -4,6 +4,8 @@
 
 #include <string>
 
+#include "panoscan/core/start_up.h"  // add_start_up_settings and its parts
+
 namespace panoscan {
 
 // Called first thing in main(), before any thread starts. Re-executes the program once
@@ -17,19 +19,11 @@ namespace panoscan {
 //    clouds and kd-trees a stage allocates costs a page fault on its first touch (5-7 us each on
 //    the 2-core VM): recon scene on the whole office took 2.0 million faults, and 62 thousand with
 //    huge pages (88 -> 69 s, peak memory 1.98 -> 1.94 GB, the same cloud bit for bit).
-// A user's own setting of either is kept. If the re-execution fails, the program carries on
+// A user's own setting of either is kept. The panoscan command's launcher (app/launcher.cpp) adds
+// both before the program is loaded, which then need not re-execute (its 211 shared libraries
+// would be loaded twice, 0.16 s of every call). If the re-execution fails, the program carries on
 // without them; under valgrind it is not tried (its /proc/self/exe is not the program). Then
 // applies keep_freed_memory_for_reuse (allocator.h).
 void set_up_process(char** argv);
-
-// The value GLIBC_TUNABLES needs for a huge-page heap, given its current value (nullptr = unset):
-// the current tunables with glibc.malloc.hugetlb=1 appended, or "" when nothing is to change (a
-// glibc.malloc.hugetlb setting is there already: the re-executed process, or the user's own,
-// e.g. hugetlb=0 to switch it off).
-std::string huge_page_heap_tunables(const char* current);
-
-// Whether this process can use a huge-page heap: glibc 2.35 or newer (older ones ignore the
-// tunable) on a kernel whose transparent huge pages are "always" or "madvise" (not "never").
-bool huge_page_heap_supported();
 
 }  // namespace panoscan
