@@ -12,6 +12,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "cli_util.h"
 #include "panoscan/core/image_io.h"
@@ -451,6 +452,33 @@ TEST_F(TumImportErrors, TheProgramImportsAndRefusesNamingTheFile) {
   r = testutil::run_panoscan("import tum --help");
   EXPECT_EQ(r.exit_code, 0);
   EXPECT_THAT(r.output, HasSubstr("--hard-link"));
+}
+
+// Colour as JPEG (as many recordings have it) goes through OpenCV's decoders, which the program loads
+// only then (core/src/opencv_decoder.cpp): the import must find and use them.
+TEST_F(TumImportErrors, TheProgramImportsJpegColour) {
+  std::string rgb = "# color images\n# timestamp filename\n";
+  for (int line = 3; line <= 5; ++line) {
+    const fs::path png = seq_ / listed_file("rgb.txt", line);
+    const fs::path jpeg = fs::path(png).replace_extension(".jpg");
+    const cv::Mat colour(480, 640, CV_8UC3, cv::Scalar(40, 90, 200));  // BGR
+    ASSERT_TRUE(cv::imwrite(jpeg.string(), colour, {cv::IMWRITE_JPEG_QUALITY, 95}));
+    fs::remove(png);
+    rgb += png.stem().string() + " rgb/" + jpeg.filename().string() + "\n";
+  }
+  write_text(seq_ / "rgb.txt", rgb);
+  const testutil::RunResult r =
+      testutil::run_panoscan("import tum --input " + seq_.string() + " --out " + options_.out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("cam0 <- " + seq_.string() + ": 3 frames 640x480"));
+  const ScanIndex index = read_scan_index(options_.out);
+  ASSERT_EQ(index.frames.at(0).size(), 3u);
+  const ImageU8 colour = load_frame(index, 0, 0).rgb;
+  ASSERT_EQ(colour.width, 640);
+  // RGB order; JPEG keeps a flat colour within a unit or two.
+  EXPECT_NEAR(colour.at(320, 240, 0), 200, 2);
+  EXPECT_NEAR(colour.at(320, 240, 1), 90, 2);
+  EXPECT_NEAR(colour.at(320, 240, 2), 40, 2);
 }
 
 }  // namespace

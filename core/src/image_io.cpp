@@ -4,6 +4,9 @@
 #include <initializer_list>
 #include <map>
 #include <fstream>
+#include <mutex>
+
+#include <dlfcn.h>
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
@@ -11,10 +14,11 @@
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgcodecs.hpp>  // the IMREAD_ flags only: the decoders are opencv_decoder.cpp's
 
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/error.h"
+#include "opencv_decoder.h"
 #include "png_decode.h"
 
 namespace fs = std::filesystem;
@@ -52,6 +56,27 @@ std::string sniff_image_format(const fs::path& path) {
   return "";
 }
 
+// OpenCV's imread from the decoder module (opencv_decoder.cpp), loaded on the first call; `path`:
+// the image that needed it, for the error when the module cannot be loaded.
+PanoscanOpencvImread opencv_imread(const fs::path& path) {
+  static std::once_flag once;
+  static PanoscanOpencvImread imread = nullptr;
+  static std::string load_error;
+  std::call_once(once, [] {
+    // RTLD_LOCAL: OpenCV's symbols stay out of the global scope the program's own lookups use.
+    void* module = ::dlopen(PANOSCAN_OPENCV_DECODER, RTLD_NOW | RTLD_LOCAL);
+    if (module == nullptr) {
+      load_error = ::dlerror();
+      return;
+    }
+    imread = reinterpret_cast<PanoscanOpencvImread>(::dlsym(module, kPanoscanOpencvImreadSymbol));
+    if (imread == nullptr) load_error = ::dlerror();
+  });
+  if (imread == nullptr)
+    throw make_error(path.string(), "", "cannot load OpenCV's image decoders (" + load_error + ")");
+  return imread;
+}
+
 // Decodes with OpenCV, but only formats PanoScan reads: OpenCV picks the decoder by content, and
 // would hand an EXR or HDR file named .png to decoders whose headers can demand gigabytes (found by
 // fuzz/panorama_fuzz.cpp: an EXR as flags.png). `png_only`: depth images (the scan format's PNG).
@@ -63,11 +88,9 @@ cv::Mat decode(const fs::path& path, int flags, bool png_only) {
     throw make_error(path.string(), "format",
                      png_only ? "not a PNG file" : "not a PNG, JPEG, BMP, TIFF, WebP or PNM image");
   cv::Mat mat;
-  try {
-    mat = cv::imread(path.string(), flags);
-  } catch (const cv::Exception& e) {
-    throw make_error(path.string(), "", std::string("cannot decode image: ") + e.what());
-  }
+  char error[512] = {};
+  if (!opencv_imread(path)(path.string().c_str(), flags, &mat, error, sizeof error))
+    throw make_error(path.string(), "", std::string("cannot decode image: ") + error);
   if (mat.empty()) throw make_error(path.string(), "", "not a readable image (corrupt or unsupported format)");
   return mat;
 }
