@@ -1,9 +1,10 @@
 // Same bits on every x86-64 machine: each vector kernel (AVX, AVX2, AVX-512, chosen at run time) is
 // meant to compute what its reference computes, bit for bit. The kernels' own tests check each one
 // on made-up inputs; this test checks the claim where it matters, on whole runs of the program. It
-// simulates two positions and reconstructs them (tracking, panoramas, registration, integration)
-// with every instruction set the CPU has, capped by PANOSCAN_CPU (core/cpu_features.h), and
-// requires every output file to be byte-identical to the uncapped run's (timings.json aside).
+// simulates two positions, reconstructs them (tracking, panoramas, registration, integration) and
+// evaluates the cloud with every instruction set the CPU has, capped by PANOSCAN_CPU
+// (core/cpu_features.h), and requires every output file to be byte-identical to the uncapped run's
+// (wall-clock timings aside).
 // Embree's kernels are left uncapped here: they are not PanoScan's, and their hits do differ
 // between instruction sets at a few silhouette pixels (README, "Same bits on every machine").
 #include <algorithm>
@@ -14,9 +15,11 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "cli_util.h"
 #include "panoscan/core/cpu_features.h"
+#include "panoscan/core/json_file.h"
 #include "test_util.h"
 
 namespace fs = std::filesystem;
@@ -55,6 +58,13 @@ std::size_t expect_same_files(const fs::path& reference, const fs::path& other, 
   return compared;
 }
 
+// An evaluation's JSON without its wall-clock seconds.
+std::string figures(const fs::path& evaluation) {
+  nlohmann::json j = panoscan::read_json_file(evaluation);
+  j.erase("timing_s");
+  return j.dump(1);
+}
+
 void run_ok(const std::string& arguments, const std::string& environment) {
   const auto r = panoscan::testutil::run_panoscan(arguments, environment);
   ASSERT_EQ(r.exit_code, 0) << environment << " panoscan " << arguments << "\n" << r.output;
@@ -84,6 +94,9 @@ TEST(IsaIdentity, EveryCappedRunWritesTheSameBytes) {
   for (const std::string position : {"1", "2"})
     run_ok(kSim + " --position " + position + " --out " + (base / ("native-" + position)).string(), "");
   run_ok(kScene + " --scans " + scans("native") + " --out " + (base / "scene-native").string(), "");
+  const std::string kEval = "eval cloud --cloud " + (base / "scene-native" / "cloud.ply").string() + " --scan " +
+                            scans("native").substr(0, scans("native").find(' '));
+  run_ok(kEval + " --json " + (base / "eval-native.json").string(), "");
 
   for (const Isa cap : caps) {
     const std::string name = panoscan::cpu::isa_name(cap), environment = "PANOSCAN_CPU=" + name;
@@ -99,6 +112,10 @@ TEST(IsaIdentity, EveryCappedRunWritesTheSameBytes) {
     const fs::path scene = base / ("scene-" + name);
     run_ok(kScene + " --scans " + scans("native") + " --out " + scene.string(), environment);
     EXPECT_GT(expect_same_files(base / "scene-native", scene, "recon scene " + name), 20u);
+    // The evaluation of the uncapped cloud: every figure but the timings.
+    const fs::path evaluation = base / ("eval-" + name + ".json");
+    run_ok(kEval + " --json " + evaluation.string(), environment);
+    EXPECT_EQ(figures(evaluation), figures(base / "eval-native.json"));
   }
 }
 
@@ -107,4 +124,22 @@ TEST(IsaIdentity, AnUnknownCapIsRefusedNamingTheVariable) {
   panoscan::testutil::expect_failure_naming(r, {"PANOSCAN_CPU", "avx3"});
   const auto e = panoscan::testutil::run_panoscan("scene list", "PANOSCAN_EMBREE_ISA=neon");
   panoscan::testutil::expect_failure_naming(e, {"PANOSCAN_EMBREE_ISA", "neon"});
+}
+
+TEST(IsaIdentity, TheScanNamesTheRayTracersKernels) {
+  // Embree's kernels do change a few pixels (README, "Same bits on every machine"): rig_truth.json
+  // names them, and PANOSCAN_EMBREE_ISA caps them.
+  panoscan::testutil::TempDir dir("ray_tracer");
+  const auto ray_tracer = [&](const std::string& environment, const std::string& name) {
+    run_ok("sim --resolution 64x48 --frames 2 --seed 1 --out " + (dir.path() / name).string(), environment);
+    return panoscan::read_json_file(dir.path() / name / "groundtruth" / "rig_truth.json")
+        .at("rendered_by")
+        .at("ray_tracer")
+        .get<std::string>();
+  };
+  const std::string native = ray_tracer("", "native");
+  EXPECT_EQ(native.rfind("Embree 3.", 0), 0u) << native;
+  EXPECT_NE(native.find(std::string(", ") + panoscan::cpu::ray_tracer_isa() + " kernels"), std::string::npos) << native;
+  const std::string capped = ray_tracer("PANOSCAN_EMBREE_ISA=sse2", "sse2");
+  EXPECT_NE(capped.find(", sse2 kernels"), std::string::npos) << capped;
 }

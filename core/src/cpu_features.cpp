@@ -56,4 +56,26 @@ std::string embree_device_config() {
   return config;
 }
 
+const char* ray_tracer_isa() {
+  static const char* const isa = [] {
+    static const char* const names[] = {"sse2", "sse4.2", "avx", "avx2", "avx512"};
+    int widest = 0;
+#if defined(__x86_64__) && defined(__GNUC__)
+    if (__builtin_cpu_supports("sse4.2")) widest = 1;
+    if (widest == 1 && __builtin_cpu_supports("avx")) widest = 2;
+    if (widest == 2 && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
+        __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2"))
+      widest = 3;
+    if (widest == 3 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512cd") &&
+        __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl"))
+      widest = 4;
+#endif
+    const std::string config = embree_device_config();  // "max_isa=<name>" or ""
+    for (int k = 0; k < widest && !config.empty(); ++k)
+      if (config == std::string("max_isa=") + names[k]) widest = k;
+    return names[widest];
+  }();
+  return isa;
+}
+
 }  // namespace panoscan::cpu

@@ -1238,6 +1238,8 @@ footer{padding-bottom:30px}
     const auto imported = read_json(dir / "import.json");
     if (truth && truth->contains("rendered_by")) {
       rows.push_back({"rendered by", provenance((*truth)["rendered_by"], "")});
+      if ((*truth)["rendered_by"].contains("ray_tracer"))
+        rows.push_back({"ray tracer", value_text((*truth)["rendered_by"]["ray_tracer"])});
     } else if (imported) {
       json w = {{"version", imported->value("panoscan_version", json("?"))},
                 {"source_revision", imported->value("source_revision", json("?"))}};

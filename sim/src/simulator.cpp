@@ -9,6 +9,7 @@
 #include <memory>
 #include <optional>
 
+#include <embree3/rtcore_config.h>
 #include <nlohmann/json.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -16,6 +17,7 @@
 #include <tbb/task_arena.h>
 
 #include "panoscan/core/pose_json.h"
+#include "panoscan/core/cpu_features.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
 #include "panoscan/core/version.h"
@@ -126,7 +128,11 @@ std::string Simulator::rig_truth_json() const {
   j["version"] = 1;
   // Which code rendered the scan: a scan cache outlives the code, so a record made from cached scans
   // can say whether the simulator has changed since (see panoscan tables).
-  j["rendered_by"] = {{"version", project_version()}, {"source_revision", source_revision()}};
+  // The ray tracer's kernels too: Embree's differ by instruction set at a few silhouette pixels.
+  j["rendered_by"] = {{"version", project_version()},
+                      {"source_revision", source_revision()},
+                      {"ray_tracer", fmt::format("Embree {}.{}.{}, {} kernels", RTC_VERSION_MAJOR, RTC_VERSION_MINOR,
+                                                 RTC_VERSION_PATCH, cpu::ray_tracer_isa())}};
   j["scene"] = scene_.name;
   j["position"] = {{"name", position_.name},
                    {"floor_point", vec_json(position_.floor_point)},

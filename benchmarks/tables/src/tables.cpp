@@ -17,6 +17,7 @@
 #include "scene_catalog.h"
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/config.h"
+#include "panoscan/core/cpu_features.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/json_file.h"
 #include "panoscan/core/log.h"
@@ -144,10 +145,11 @@ fs::path cached_scan(const std::string& label, const TablesOptions& options, int
   const LabelledScene scene = scene_for_label(label, options);
   // The key names everything that changes the scan, the code included: a scan rendered by another
   // revision is never reused (a dirty tree's revision carries a hash of its diff, see
-  // cmake/SourceRevision.cmake).
-  const std::string key = fmt::format("{}_{}_{}x{}_n{}_{}_seed{}_tex-{}_rev-{}", label, scene.key, preset.width,
-                                      preset.height, every, options.noise, options.seed, options.texture,
-                                      source_revision());
+  // cmake/SourceRevision.cmake), nor one rendered with other ray-tracing kernels (a cache shared by
+  // machines of different CPUs; core/cpu_features.h).
+  const std::string key =
+      fmt::format("{}_{}_{}x{}_n{}_{}_seed{}_tex-{}_rt-{}_rev-{}", label, scene.key, preset.width, preset.height, every,
+                  options.noise, options.seed, options.texture, cpu::ray_tracer_isa(), source_revision());
   const fs::path dir = cache / key;
   CacheLock lock(cache / (key + ".lock"));
   if (fs::exists(dir / "rig.json")) {

@@ -25,6 +25,11 @@ Isa dispatched_isa();
 // Embree's kernels (`avx512`, `avx2`, `avx`, `sse4.2`, `sse2`): then "max_isa=<it>". An unknown value
 // throws Error naming the variable (Embree itself would ignore it).
 std::string embree_device_config();
+// The kernels Embree 3 runs on this CPU ("avx512", "avx2", "avx", "sse4.2", "sse2"): the widest whose
+// features the CPU has, as Embree chooses (AVX-512 F/CD/DQ/BW/VL; AVX2 with FMA, BMI1 and BMI2), under
+// PANOSCAN_EMBREE_ISA. Their hits differ at a few silhouette pixels, so a scan's provenance and the
+// tables' scan cache name them.
+const char* ray_tracer_isa();
 
 #if defined(__x86_64__) && defined(__GNUC__)
 inline bool has_avx() {
