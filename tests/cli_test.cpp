@@ -65,24 +65,13 @@ TEST(Cli, ReexecutesWithTheSettingsReadAtStartUpAndKeepsTheUsers) {
   EXPECT_NE(r.output.find("GLIBC_TUNABLES=glibc.malloc.hugetlb=0\n"), std::string::npos) << r.output;
 }
 
-// A shell command's output and exit code (cli_util's run_panoscan runs the launcher only).
-RunResult run_shell(const std::string& command) {
-  RunResult result;
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  if (!pipe) return {-1, "popen failed: " + command};
-  std::array<char, 4096> buffer{};
-  while (fgets(buffer.data(), buffer.size(), pipe)) result.output += buffer.data();
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
-
 TEST(Cli, TheProgramAloneReexecutesItselfWithTheSettings) {
   // app/launcher.cpp adds the settings before the program is loaded; panoscan-main run on its own
   // (under gdb, say) gets them by re-executing itself, as before the launcher.
   const std::string tunables = panoscan::huge_page_heap_supported() ? "glibc.malloc.hugetlb=1" : "(unset)";
-  const RunResult r = run_shell("env -u OMP_WAIT_POLICY -u GLIBC_TUNABLES " + std::string(PANOSCAN_BINARY_DIR) +
-                                "/app/panoscan-main -v scene list");
+  const RunResult r =
+      panoscan::testutil::run_command("env -u OMP_WAIT_POLICY -u GLIBC_TUNABLES " + std::string(PANOSCAN_BINARY_DIR) +
+                                      "/app/panoscan-main -v scene list");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("OMP_WAIT_POLICY=PASSIVE GLIBC_TUNABLES=" + tunables + "\n"), std::string::npos) << r.output;
 }
@@ -92,13 +81,13 @@ TEST(Cli, TheLauncherFindsTheProgramThroughALinkAndSaysWhenItIsMissing) {
   const fs::path launcher = fs::path(PANOSCAN_BINARY_DIR) / "app" / "panoscan";
   // A symbolic link elsewhere (e.g. in ~/bin) runs the program beside the launcher it points to.
   fs::create_symlink(launcher, tmp / "panoscan");
-  RunResult r = run_shell((tmp / "panoscan").string() + " --version");
+  RunResult r = panoscan::testutil::run_command((tmp / "panoscan").string() + " --version");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(r.output, "panoscan " + panoscan::project_version() + " (" + panoscan::source_revision() + ")\n");
   // A copy has no program beside it: one line naming the path it looked for, exit 2.
   fs::copy_file(launcher, tmp / "copy");
   fs::permissions(tmp / "copy", fs::perms::owner_exec, fs::perm_options::add);
-  r = run_shell((tmp / "copy").string() + " --version");
+  r = panoscan::testutil::run_command((tmp / "copy").string() + " --version");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_EQ(r.output, "panoscan: cannot run " + (tmp / "panoscan-main").string() + ": No such file or directory\n");
 }

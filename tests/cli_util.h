@@ -17,13 +17,10 @@ struct RunResult {
   std::string output;  // stdout and stderr
 };
 
-// Runs the program built beside the tests with `arguments` (shell words) and collects its output;
-// `environment`: NAME=value words set for the run.
-inline RunResult run_panoscan(const std::string& arguments, const std::string& environment = "") {
-  const std::string command = (environment.empty() ? "" : "env " + environment + " ") + PANOSCAN_BINARY_DIR +
-                              "/app/panoscan " + arguments + " 2>&1";
+// Runs a shell command and collects its output (stdout and stderr) and exit code.
+inline RunResult run_command(const std::string& command) {
   RunResult result;
-  FILE* pipe = popen(command.c_str(), "r");
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
   if (!pipe) {
     ADD_FAILURE() << "popen failed for: " << command;
     result.exit_code = -1;
@@ -34,6 +31,13 @@ inline RunResult run_panoscan(const std::string& arguments, const std::string& e
   const int status = pclose(pipe);
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return result;
+}
+
+// Runs the program built beside the tests with `arguments` (shell words) and collects its output;
+// `environment`: NAME=value words set for the run.
+inline RunResult run_panoscan(const std::string& arguments, const std::string& environment = "") {
+  return run_command((environment.empty() ? "" : "env " + environment + " ") + PANOSCAN_BINARY_DIR + "/app/panoscan " +
+                     arguments);
 }
 
 // A failed run whose output names every needle (the file, the field, the reason).
