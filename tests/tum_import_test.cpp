@@ -303,7 +303,7 @@ TEST_F(TumImportErrors, TheValidFolderImportsWithTheFr1Preset) {
   EXPECT_EQ(report.sensors[0].frames, 3u);
   EXPECT_EQ(report.sensors[0].intrinsics_source, "folder name: fr1");
   EXPECT_FALSE(report.sensors[0].has_groundtruth);
-  const SensorInfo& sensor = read_scan_index(options_.out).rig.sensors[0];
+  const SensorInfo sensor = read_scan_index(options_.out).rig.sensors[0];  // a copy: the index is a temporary
   EXPECT_EQ(sensor.intrinsics.fx, 517.3);
   EXPECT_EQ(sensor.intrinsics.cx, 318.6);
   EXPECT_FALSE(fs::exists(groundtruth_dir(options_.out)));
