@@ -1,2 +1,2 @@
 add_executable(registration_benchmark registration_benchmark.cpp)
-target_link_libraries(registration_benchmark PRIVATE panoscan_recon_registration panoscan_sim panoscan_scenes benchmark::benchmark)
+target_link_libraries(registration_benchmark PRIVATE panoscan_recon_registration panoscan_recon_open3d panoscan_sim panoscan_scenes benchmark::benchmark)

@@ -92,6 +92,19 @@ TEST(Cli, TheLauncherFindsTheProgramThroughALinkAndSaysWhenItIsMissing) {
   EXPECT_EQ(r.output, "panoscan: cannot run " + (tmp / "panoscan-main").string() + ": No such file or directory\n");
 }
 
+TEST(Cli, StartingLoadsNeitherOpen3dNorOpenCvsDecoders) {
+  // Both are modules loaded on first use (recon/open3d, core/src/opencv_decoder.cpp): together they
+  // were ~180 of the program's 211 shared libraries and most of its 0.3 s start. The loader's log
+  // (LD_DEBUG=files) names every object it opens.
+  const RunResult r = panoscan::testutil::run_command("env LD_DEBUG=files " + std::string(PANOSCAN_BINARY_DIR) +
+                                                      "/app/panoscan --version");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("libopencv_core"), std::string::npos) << "the log names no libraries: " << r.output;
+  for (const std::string library :
+       {"libOpen3D", "libopencv_imgcodecs", "libgdal", "panoscan_open3d_module", "panoscan_opencv_decoder"})
+    EXPECT_EQ(r.output.find(library), std::string::npos) << library << " is loaded at start-up";
+}
+
 TEST(Cli, BadInputExitsNonZeroNamingFileAndField) {
   panoscan::testutil::TempDir tmp("cli");
   const std::string out = (tmp / "scan").string();

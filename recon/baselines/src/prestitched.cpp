@@ -12,13 +12,8 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
-#include <open3d/camera/PinholeCameraIntrinsic.h>
-#include <open3d/geometry/RGBDImage.h>
-#include <open3d/pipelines/odometry/Odometry.h>
-#include <open3d/utility/Logging.h>
-
 #include "panoscan/core/error.h"
-#include "panoscan/recon/open3d_frame.h"
+#include "panoscan/recon/open3d_calls.h"
 
 namespace panoscan {
 
@@ -351,35 +346,18 @@ class SingleThreadedOpen3d {
   std::string previous_;
 };
 
-// Quietens Open3D's per-step warnings (a failed step is counted instead).
-class Open3dErrorsOnly {
- public:
-  Open3dErrorsOnly() : previous_(open3d::utility::GetVerbosityLevel()) {
-    open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
-  }
-  ~Open3dErrorsOnly() { open3d::utility::SetVerbosityLevel(previous_); }
-
- private:
-  open3d::utility::VerbosityLevel previous_;
-};
-
 }  // namespace
 
 StitchedOdometryResult track_stitched_scan(const ScanIndex& stitched, const StitchedOdometryOptions& options) {
   options.check();
+  open3d_calls::load();  // before the clock: loading Open3D is not the odometry's time
   const auto t0 = Clock::now();
   const std::string origin = stitched.root.string();
   if (stitched.rig.sensors.empty() || stitched.frames.empty() || stitched.frames[0].empty())
     throw make_error(origin, "frames", "no frames to track");
-  namespace o3d = open3d;
   const PinholeIntrinsics& k = stitched.rig.sensors[0].intrinsics;
-  const o3d::camera::PinholeCameraIntrinsic intrinsic(k.width, k.height, k.fx, k.fy, k.cx, k.cy);
-  o3d::pipelines::odometry::OdometryOption option(options.iterations_per_level, options.max_depth_difference_m,
-                                                  options.min_depth_m, options.max_depth_m);
-  const o3d::pipelines::odometry::RGBDOdometryJacobianFromHybridTerm hybrid;
 
   SingleThreadedOpen3d single_thread;
-  Open3dErrorsOnly quiet;
   StitchedOdometryResult result;
   result.trajectory.source = "open3d-rgbd-odometry";
   result.trajectory.ref_from_cam = {Rigid3d::Identity()};
@@ -387,15 +365,16 @@ StitchedOdometryResult track_stitched_scan(const ScanIndex& stitched, const Stit
   auto& poses = result.trajectory.world_from_cam[0];
   const auto& frames = stitched.frames[0];
   poses.push_back({frames[0].timestamp, Rigid3d::Identity()});
-  auto previous = open3d_rgbd_from_frame(load_frame(stitched, 0, 0), options.max_depth_m, true);
+  // Open3D's warnings are silenced inside (a failed step is counted instead).
+  open3d_calls::RgbdImage previous(load_frame(stitched, 0, 0), options.max_depth_m, true);
   Eigen::Matrix4d last_step = Eigen::Matrix4d::Identity();  // previous_from_current of the last step
   for (std::size_t i = 1; i < frames.size(); ++i) {
-    auto current = open3d_rgbd_from_frame(load_frame(stitched, 0, i), options.max_depth_m, true);
-    // Open3D returns the transformation taking the source (current) frame's points into the
-    // target (previous) frame: previous_from_current.
-    const auto [ok, step, information] =
-        o3d::pipelines::odometry::ComputeRGBDOdometry(*current, *previous, intrinsic, last_step, hybrid, option);
-    (void)information;
+    open3d_calls::RgbdImage current(load_frame(stitched, 0, i), options.max_depth_m, true);
+    const open3d_calls::OdometryStep odometry =
+        open3d_calls::rgbd_odometry(current, previous, k, last_step, options.iterations_per_level,
+                                    options.max_depth_difference_m, options.min_depth_m, options.max_depth_m);
+    const bool ok = odometry.converged;
+    const Eigen::Matrix4d& step = odometry.previous_from_current;
     Eigen::Matrix4d used = last_step;
     if (ok && step.allFinite()) {
       used = step;
@@ -406,7 +385,7 @@ StitchedOdometryResult track_stitched_scan(const ScanIndex& stitched, const Stit
     previous_from_current.matrix() = used;
     poses.push_back({frames[i].timestamp, poses.back().world_from_cam * previous_from_current});
     last_step = used;
-    previous = current;
+    previous = std::move(current);
   }
   result.seconds = seconds_since(t0);
   return result;

@@ -1,9 +1,7 @@
 #include "panoscan/recon/outside_references.h"
 
-#include <open3d/geometry/PointCloud.h>
-#include <open3d/pipelines/registration/GeneralizedICP.h>
-
 #include "panoscan/core/error.h"
+#include "panoscan/recon/open3d_calls.h"
 
 namespace panoscan {
 
@@ -11,21 +9,16 @@ IcpResult register_open3d_gicp(const RegistrationCloud& source, const Registrati
                                const Rigid3d& initial_target_from_source, const IcpOptions& options) {
   options.check();
   if (source.points.empty() || target.points.empty()) throw make_error("", "registration", "empty cloud");
-  open3d::geometry::PointCloud open3d_source, open3d_target;
-  open3d_source.points_ = source.points;
-  open3d_target.points_ = target.points;
-  namespace reg = open3d::pipelines::registration;
-  const reg::RegistrationResult open3d_result = reg::RegistrationGeneralizedICP(
-      open3d_source, open3d_target, options.max_correspondence_m, initial_target_from_source.matrix(),
-      reg::TransformationEstimationForGeneralizedICP(),
-      reg::ICPConvergenceCriteria(1e-6, 1e-6, options.max_iterations));
+  const open3d_calls::GicpResult open3d_result =
+      open3d_calls::generalized_icp(source.points, target.points, options.max_correspondence_m,
+                                    initial_target_from_source.matrix(), options.max_iterations);
   IcpResult result;
-  result.target_from_source.matrix() = open3d_result.transformation_;
+  result.target_from_source.matrix() = open3d_result.target_from_source;
   result.iterations = options.max_iterations;  // Open3D 0.16 does not report the count
   result.converged = true;
-  result.inlier_fraction = open3d_result.fitness_;
-  result.correspondences = open3d_result.correspondence_set_.size();
-  result.rmse_m = open3d_result.inlier_rmse_;
+  result.inlier_fraction = open3d_result.fitness;
+  result.correspondences = open3d_result.correspondences;
+  result.rmse_m = open3d_result.inlier_rmse;
   return result;
 }
 
