@@ -6,8 +6,6 @@
 #include <fstream>
 #include <mutex>
 
-#include <dlfcn.h>
-
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
@@ -18,6 +16,7 @@
 
 #include "panoscan/core/atomic_output.h"
 #include "panoscan/core/error.h"
+#include "panoscan/core/module.h"
 #include "opencv_decoder.h"
 #include "png_decode.h"
 
@@ -63,14 +62,8 @@ PanoscanOpencvImread opencv_imread(const fs::path& path) {
   static PanoscanOpencvImread imread = nullptr;
   static std::string load_error;
   std::call_once(once, [] {
-    // RTLD_LOCAL: OpenCV's symbols stay out of the global scope the program's own lookups use.
-    void* module = ::dlopen(PANOSCAN_OPENCV_DECODER, RTLD_NOW | RTLD_LOCAL);
-    if (module == nullptr) {
-      load_error = ::dlerror();
-      return;
-    }
-    imread = reinterpret_cast<PanoscanOpencvImread>(::dlsym(module, kPanoscanOpencvImreadSymbol));
-    if (imread == nullptr) load_error = ::dlerror();
+    imread = reinterpret_cast<PanoscanOpencvImread>(
+        load_module_symbol(PANOSCAN_OPENCV_DECODER, kPanoscanOpencvImreadSymbol, &load_error));
   });
   if (imread == nullptr)
     throw make_error(path.string(), "", "cannot load OpenCV's image decoders (" + load_error + ")");

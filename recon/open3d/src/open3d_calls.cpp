@@ -3,10 +3,9 @@
 #include <mutex>
 #include <utility>
 
-#include <dlfcn.h>
-
 #include "open3d_table.h"
 #include "panoscan/core/error.h"
+#include "panoscan/core/module.h"
 
 namespace panoscan::open3d_calls {
 
@@ -23,18 +22,10 @@ const Table& table() {
   static const Table* loaded = nullptr;
   static std::string load_error;
   std::call_once(once, [] {
-    // RTLD_LOCAL: Open3D's symbols (its bundled libraries') stay out of the program's global scope.
-    void* module = ::dlopen(PANOSCAN_OPEN3D_MODULE, RTLD_NOW | RTLD_LOCAL);
-    if (module == nullptr) {
-      load_error = ::dlerror();
-      return;
-    }
     using TableFunction = const Table* (*)();
-    const auto get = reinterpret_cast<TableFunction>(::dlsym(module, kPanoscanOpen3dTableSymbol));
-    if (get == nullptr) {
-      load_error = ::dlerror();
-      return;
-    }
+    const auto get = reinterpret_cast<TableFunction>(
+        load_module_symbol(PANOSCAN_OPEN3D_MODULE, kPanoscanOpen3dTableSymbol, &load_error));
+    if (get == nullptr) return;
     const Table* candidate = get();
     if (candidate->version != open3d_module::kTableVersion) {
       load_error = std::string(PANOSCAN_OPEN3D_MODULE) + " is of another build (table version " +
@@ -67,11 +58,11 @@ void load() { table(); }
 GicpResult generalized_icp(const std::vector<Eigen::Vector3d>& source, const std::vector<Eigen::Vector3d>& target,
                            double max_correspondence_m, const Eigen::Matrix4d& initial_target_from_source,
                            int max_iterations) {
-  open3d_module::GicpOutput out;
+  GicpResult out;
   std::string error;
   check(table().gicp(source, target, max_correspondence_m, initial_target_from_source, max_iterations, &out, &error),
         "generalized ICP", error);
-  return {out.target_from_source, out.fitness, out.inlier_rmse, out.correspondences};
+  return out;
 }
 
 TsdfVolume::TsdfVolume(double voxel_m, double truncation_m) : volume_(table().tsdf_new(voxel_m, truncation_m)) {}
@@ -86,11 +77,10 @@ void TsdfVolume::integrate(const RgbdFrame& frame, double max_depth_m, const Pin
 }
 
 TsdfMesh TsdfVolume::extract_mesh() const {
-  open3d_module::TsdfMesh out;
+  TsdfMesh out;
   std::string error;
   check(table().tsdf_extract(volume_, &out, &error), "TSDF mesh", error);
-  return {std::move(out.vertices), std::move(out.colours), std::move(out.triangles), out.volume_units,
-          out.unit_resolution};
+  return out;
 }
 
 RgbdImage::RgbdImage(const RgbdFrame& frame, double max_depth_m, bool intensity) : image_(nullptr) {

@@ -23,7 +23,7 @@ namespace {
 
 namespace o3d = open3d;
 using panoscan::open3d_module::FrameView;
-using panoscan::open3d_module::GicpOutput;
+using panoscan::open3d_module::GicpResult;
 using panoscan::open3d_module::Intrinsics;
 using panoscan::open3d_module::TsdfMesh;
 
@@ -77,7 +77,7 @@ std::shared_ptr<o3d::geometry::RGBDImage> rgbd_of(const FrameView& frame, double
 
 bool gicp(const std::vector<Eigen::Vector3d>& source, const std::vector<Eigen::Vector3d>& target,
           double max_correspondence_m, const Eigen::Matrix4d& initial_target_from_source, int max_iterations,
-          GicpOutput* out, std::string* error) {
+          GicpResult* out, std::string* error) {
   return guarded(error, [&] {
     o3d::geometry::PointCloud open3d_source, open3d_target;
     open3d_source.points_ = source;

@@ -11,10 +11,15 @@
 
 #include <Eigen/Core>
 
+#include "panoscan/recon/open3d_results.h"
+
 namespace panoscan::open3d_module {
 
+using open3d_calls::GicpResult;
+using open3d_calls::TsdfMesh;
+
 // Raised whenever the table's layout changes: a stale module is refused rather than misread.
-constexpr int kTableVersion = 1;
+constexpr int kTableVersion = 2;
 
 struct Intrinsics {
   int width = 0, height = 0;
@@ -28,27 +33,13 @@ struct FrameView {
   const float* depth_m = nullptr;
 };
 
-struct GicpOutput {
-  Eigen::Matrix4d target_from_source = Eigen::Matrix4d::Identity();
-  double fitness = 0.0;      // Open3D's inlier fraction within the correspondence distance
-  double inlier_rmse = 0.0;  // over those inliers
-  std::size_t correspondences = 0;
-};
-
-struct TsdfMesh {
-  std::vector<Eigen::Vector3d> vertices, colours;  // colours in [0, 1], empty without
-  std::vector<Eigen::Vector3i> triangles;
-  std::size_t volume_units = 0;  // allocated blocks
-  int unit_resolution = 0;       // voxels per block edge
-};
-
 // Every call that can fail returns false with `error` set (Open3D's exception text); handles are
 // owned by the caller and freed with the matching delete.
 struct Table {
   int version;
   bool (*gicp)(const std::vector<Eigen::Vector3d>& source, const std::vector<Eigen::Vector3d>& target,
                double max_correspondence_m, const Eigen::Matrix4d& initial_target_from_source, int max_iterations,
-               GicpOutput* out, std::string* error);
+               GicpResult* out, std::string* error);
   void* (*tsdf_new)(double voxel_m, double truncation_m);
   bool (*tsdf_integrate)(void* volume, const FrameView& frame, double max_depth_m, const Intrinsics& k,
                          const Eigen::Matrix4d& cam_from_world, std::string* error);

@@ -11,6 +11,7 @@
 
 #include "panoscan/core/camera.h"
 #include "panoscan/core/scan.h"
+#include "panoscan/recon/open3d_results.h"
 
 namespace panoscan::open3d_calls {
 
@@ -18,25 +19,11 @@ namespace panoscan::open3d_calls {
 // (~0.04 s and ~100 shared libraries, once per process).
 void load();
 
-struct GicpResult {
-  Eigen::Matrix4d target_from_source = Eigen::Matrix4d::Identity();
-  double fitness = 0.0;      // inlier fraction within the correspondence distance
-  double inlier_rmse = 0.0;  // over those inliers
-  std::size_t correspondences = 0;
-};
-
 // open3d::pipelines::registration::RegistrationGeneralizedICP with ICPConvergenceCriteria(1e-6,
 // 1e-6, max_iterations).
 GicpResult generalized_icp(const std::vector<Eigen::Vector3d>& source, const std::vector<Eigen::Vector3d>& target,
                            double max_correspondence_m, const Eigen::Matrix4d& initial_target_from_source,
                            int max_iterations);
-
-struct TsdfMesh {
-  std::vector<Eigen::Vector3d> vertices, colours;  // colours in [0, 1], empty without
-  std::vector<Eigen::Vector3i> triangles;
-  std::size_t volume_units = 0;  // allocated blocks
-  int unit_resolution = 0;       // voxels per block edge
-};
 
 // open3d::pipelines::integration::ScalableTSDFVolume with RGB8 colour.
 class TsdfVolume {
