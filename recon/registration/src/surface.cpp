@@ -146,6 +146,10 @@ struct GridPlanes {
 // the same bits.
 #pragma GCC push_options
 #pragma GCC optimize("fp-contract=off")
+// GCC 12's AVX-512 intrinsics pass _mm256_undefined_pd() as the unused merge source, which it then
+// reports as "may be used uninitialized" (GCC bug 105593, as in core/src/random.cpp).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 __attribute__((target("avx512f,avx512dq,bmi2"))) std::size_t interior_neighbours_avx512(
     const RegistrationCloud& cloud, const GridPlanes& planes, const std::vector<std::int32_t>& cell_index, int row,
     int column, const Eigen::Vector3d& p, std::size_t k, std::uint32_t* indices) {
@@ -178,6 +182,7 @@ __attribute__((target("avx512f,avx512dq,bmi2"))) std::size_t interior_neighbours
     indices[found++] = std::uint32_t(points_in_slots[__builtin_ctzll(chosen)]);
   return found;
 }
+#pragma GCC diagnostic pop
 #pragma GCC pop_options
 #endif
 
