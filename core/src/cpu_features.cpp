@@ -1,6 +1,8 @@
 #include "panoscan/core/cpu_features.h"
 
+#include <algorithm>
 #include <cstdlib>
+#include <iterator>
 
 #include "panoscan/core/error.h"
 
@@ -43,22 +45,35 @@ Isa dispatched_isa() {
   return Isa::kSse2;
 }
 
-std::string embree_device_config() {
-  static const std::string config = [] {
+namespace {
+
+// Embree 3's names for its kernel sets, narrowest first.
+constexpr const char* kEmbreeIsas[] = {"sse2", "sse4.2", "avx", "avx2", "avx512"};
+constexpr int kUncapped = -1;
+
+// The index in kEmbreeIsas that PANOSCAN_EMBREE_ISA caps Embree at, or kUncapped (unset or "native").
+// Embree ignores a name it does not know, so the name is checked here.
+int embree_cap() {
+  static const int cap = [] {
     const char* value = std::getenv("PANOSCAN_EMBREE_ISA");
-    if (value == nullptr || *value == '\0' || std::string(value) == "native") return std::string();
-    // Embree 3's names for its kernels; it ignores a name it does not know, so they are checked here.
-    for (const char* isa : {"sse2", "sse4.2", "avx", "avx2", "avx512"})
-      if (std::string(value) == isa) return "max_isa=" + std::string(value);
+    if (value == nullptr || *value == '\0' || std::string(value) == "native") return kUncapped;
+    for (int k = 0; k < int(std::size(kEmbreeIsas)); ++k)
+      if (std::string(value) == kEmbreeIsas[k]) return k;
     throw make_error("environment", "PANOSCAN_EMBREE_ISA",
                      "'" + std::string(value) + "' is not one of native, avx512, avx2, avx, sse4.2, sse2");
   }();
-  return config;
+  return cap;
+}
+
+}  // namespace
+
+std::string embree_device_config() {
+  const int cap = embree_cap();
+  return cap == kUncapped ? std::string() : std::string("max_isa=") + kEmbreeIsas[cap];
 }
 
 const char* ray_tracer_isa() {
   static const char* const isa = [] {
-    static const char* const names[] = {"sse2", "sse4.2", "avx", "avx2", "avx512"};
     int widest = 0;
 #if defined(__x86_64__) && defined(__GNUC__)
     if (__builtin_cpu_supports("sse4.2")) widest = 1;
@@ -70,10 +85,8 @@ const char* ray_tracer_isa() {
         __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl"))
       widest = 4;
 #endif
-    const std::string config = embree_device_config();  // "max_isa=<name>" or ""
-    for (int k = 0; k < widest && !config.empty(); ++k)
-      if (config == std::string("max_isa=") + names[k]) widest = k;
-    return names[widest];
+    const int cap = embree_cap();
+    return kEmbreeIsas[cap == kUncapped ? widest : std::min(widest, cap)];
   }();
   return isa;
 }
