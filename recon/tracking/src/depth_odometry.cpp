@@ -6,6 +6,7 @@
 #include <vector>
 
 #include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
 
 namespace panoscan::depth_odometry {
 
@@ -19,9 +20,15 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 struct SurfaceGrid {
   int width = 0, height = 0;
   std::vector<Eigen::Vector3d> points;
-  std::vector<Eigen::Vector3d> normals;
+  std::vector<Eigen::Vector3d> normals;       // from the four neighbours: the residual's
+  std::vector<Eigen::Vector3d> wide_normals;  // from the 5 x 5 window where it lies on one surface, else the same
   std::vector<char> valid, has_normal;
 };
+
+// The unit normal of the least-squares plane through the (2 radius + 1)^2 samples around (i, j),
+// facing the camera; zero unless all of them lie on the centre's surface. Its two gradients are the
+// window's weighted differences (sum of d P / sum of d^2).
+Eigen::Vector3d window_normal(const SurfaceGrid& s, int i, int j, int radius, double c);
 
 bool same_surface(double z, double z_neighbour, double c) {
   return z_neighbour > 0.0 && std::abs(z_neighbour - z) <= std::max(0.1 * z, 6.0 * c * z * z);
@@ -42,28 +49,54 @@ SurfaceGrid surface_grid(const DepthGrid& grid, double c) {
         s.points[std::size_t(j) * s.width + i] = grid.point(i, j);
         s.valid[std::size_t(j) * s.width + i] = 1;
       }
+  s.wide_normals.assign(n, Eigen::Vector3d::Zero());
   for (int j = 1; j + 1 < s.height; ++j)
     for (int i = 1; i + 1 < s.width; ++i) {
+      const Eigen::Vector3d normal = window_normal(s, i, j, 1, c);
+      if (normal.isZero()) continue;
       const std::size_t k = std::size_t(j) * s.width + i;
-      if (!s.valid[k]) continue;
-      const double z = s.points[k].z();
-      const std::size_t left = k - 1, right = k + 1, up = k - s.width, down = k + s.width;
-      bool ok = true;
-      for (std::size_t nb : {left, right, up, down}) ok = ok && s.valid[nb] && same_surface(z, s.points[nb].z(), c);
-      if (!ok) continue;
-      Eigen::Vector3d normal = (s.points[right] - s.points[left]).cross(s.points[down] - s.points[up]);
-      const double norm = normal.norm();
-      if (!(norm > 0.0)) continue;
-      normal /= norm;
-      if (normal.dot(s.points[k]) > 0.0) normal = -normal;
       s.normals[k] = normal;
       s.has_normal[k] = 1;
+      // Which directions a sample informs is decided with the wider window's normal (AlignOptions::
+      // min_normal_alignment): across the disparity staircase's risers (2 cm at 2.5 m) the
+      // neighbours' normals of a plain wall scatter by several degrees, the 5 x 5 window's by a
+      // fraction of that. The residual keeps the neighbours' normal, which follows a surface up to
+      // one block from a crease.
+      const Eigen::Vector3d wide = window_normal(s, i, j, 2, c);
+      s.wide_normals[k] = wide.isZero() ? normal : wide;
     }
   return s;
 }
 
+Eigen::Vector3d window_normal(const SurfaceGrid& s, int i, int j, int radius, double c) {
+  if (i < radius || j < radius || i + radius >= s.width || j + radius >= s.height) return Eigen::Vector3d::Zero();
+  const std::size_t k = std::size_t(j) * s.width + i;
+  if (!s.valid[k]) return Eigen::Vector3d::Zero();
+  const double z = s.points[k].z();
+  Eigen::Vector3d along_i = Eigen::Vector3d::Zero(), along_j = Eigen::Vector3d::Zero();
+  for (int dj = -radius; dj <= radius; ++dj)
+    for (int di = -radius; di <= radius; ++di) {
+      const std::size_t nb = std::size_t(j + dj) * s.width + std::size_t(i + di);
+      if (!s.valid[nb] || !same_surface(z, s.points[nb].z(), c)) return Eigen::Vector3d::Zero();
+      along_i += double(di) * s.points[nb];
+      along_j += double(dj) * s.points[nb];
+    }
+  Eigen::Vector3d normal = along_i.cross(along_j);
+  const double norm = normal.norm();
+  if (!(norm > 0.0)) return Eigen::Vector3d::Zero();
+  normal /= norm;
+  return normal.dot(s.points[k]) > 0.0 ? Eigen::Vector3d(-normal) : normal;
+}
+
 // The 3-D pairing gate of iteration `iteration` before its per-sample floor: halves from max_distance_m.
 double coarse_gate(const AlignOptions& o, int iteration) { return o.max_distance_m * std::pow(0.5, iteration); }
+
+// The directions the residuals are resolved along: the eigenvectors of the rotation and of the
+// translation block of the Hessian at the guess (columns), so that a plane's normal and the
+// directions within it are among them.
+struct Directions {
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity(), translation = Eigen::Matrix3d::Identity();
+};
 
 struct Linearisation {
   Matrix6d hessian = Matrix6d::Zero();
@@ -74,8 +107,13 @@ struct Linearisation {
 
 // The normal equations of the point-to-plane residuals at a_from_b, pairs within the gate of
 // iteration `iteration` (the gate halves from max_distance_m down to 4 sigma + one block's footprint).
+// With `directions`, a sample informs a direction only where its surface faces it: the rotation
+// about axis e through b's origin where |(p x n) . e| / |p| >= min_normal_alignment, the translation
+// along e where |n . e| >= min_normal_alignment; its Jacobian's other components are dropped (see
+// AlignOptions::min_normal_alignment for why).
 Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, const std::vector<Eigen::Vector3d>& b,
-                        const Rigid3d& a_from_b, int iteration, const AlignOptions& o) {
+                        const Rigid3d& a_from_b, int iteration, const AlignOptions& o,
+                        const Directions* directions = nullptr) {
   Linearisation lin;
   const Eigen::Matrix3d rotation = a_from_b.linear();
   const double c = o.depth_noise_coefficient;
@@ -102,6 +140,20 @@ Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, c
     Vector6d jacobian;
     jacobian.head<3>() = p.cross(n_b) / sigma;  // d r / d omega (X <- X exp(omega, v))
     jacobian.tail<3>() = n_b / sigma;           // d r / d v
+    if (directions) {
+      Eigen::Vector3d about = directions->rotation.transpose() * p.cross(n_b);
+      Eigen::Vector3d along = directions->translation.transpose() * n_b;
+      const Eigen::Vector3d wide_b = rotation.transpose() * a.wide_normals[k];
+      const Eigen::Vector3d wide_about = directions->rotation.transpose() * p.cross(wide_b);
+      const Eigen::Vector3d wide_along = directions->translation.transpose() * wide_b;
+      const double arm = p.norm();
+      for (int i = 0; i < 3; ++i) {
+        if (std::abs(wide_about[i]) < o.min_normal_alignment * arm) about[i] = 0.0;
+        if (std::abs(wide_along[i]) < o.min_normal_alignment) along[i] = 0.0;
+      }
+      jacobian.head<3>() = directions->rotation * about / sigma;
+      jacobian.tail<3>() = directions->translation * along / sigma;
+    }
     lin.hessian.noalias() += weight * jacobian * jacobian.transpose();
     lin.gradient.noalias() += weight * jacobian * r;
     lin.whitened_sq += r * r;
@@ -127,9 +179,20 @@ AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigi
   result.samples = int(source.size());
 
   Rigid3d a_from_b = a_from_b_guess;
+  // The directions the samples are resolved along, from the guess with the first (widest) gate.
+  Directions directions;
+  const Directions* resolved = nullptr;
+  if (o.min_normal_alignment > 0.0) {
+    const Linearisation first = linearise(target, a.intrinsics, source, a_from_b, 0, o);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rotation(first.hessian.topLeftCorner<3, 3>());
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> translation(first.hessian.bottomRightCorner<3, 3>());
+    directions.rotation = rotation.eigenvectors();
+    directions.translation = translation.eigenvectors();
+    resolved = &directions;
+  }
   int iteration = 0;
   for (; iteration < o.max_iterations; ++iteration) {
-    const Linearisation lin = linearise(target, a.intrinsics, source, a_from_b, iteration, o);
+    const Linearisation lin = linearise(target, a.intrinsics, source, a_from_b, iteration, o, resolved);
     if (lin.inliers < 6) break;
     // Gauss-Newton with a whisper of damping: a plain wall leaves directions without information.
     Matrix6d damped = lin.hessian;
@@ -151,7 +214,7 @@ AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigi
   }
   result.iterations = iteration;
   // The information at the solution, with the final (tightest) gate.
-  const Linearisation final_lin = linearise(target, a.intrinsics, source, a_from_b, o.max_iterations + 64, o);
+  const Linearisation final_lin = linearise(target, a.intrinsics, source, a_from_b, o.max_iterations + 64, o, resolved);
   result.inliers = final_lin.inliers;
   result.a_from_b = a_from_b;
   result.information = o.information_scale * final_lin.hessian;

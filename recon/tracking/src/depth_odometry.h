@@ -20,6 +20,13 @@
 // a limit cycle of a few hundredths of a sigma, and a fixed tiny threshold (1e-7) ran most pairs to
 // max_iterations for nothing (recon/tracking/README.md, "Depth odometry", Cost).
 //
+// Which directions a sample informs: a wall's samples all but "measure" the slide along it through
+// their normals' scatter (AlignOptions::min_normal_alignment). The rotations and translations are
+// resolved along the eigenvectors of the two blocks of the Hessian at the guess (for a wall: its
+// normal and two directions within it), and a sample's Jacobian keeps a component only where its
+// normal, taken over a 5 x 5-sample window, leans towards that direction; Gauss-Newton and the
+// information then leave an unobserved direction where the guess put it, with no information.
+//
 // The information: H = sum_k w_k J_k^T J_k / sigma_k^2 at the solution, in the (omega, v) order
 // of a right perturbation, times information_scale. Summing over every block treats their errors
 // as independent, which the disparity quantisation (a staircase correlated along the surface)
@@ -48,6 +55,16 @@ struct AlignOptions {
   double max_step_deg = 5.0;        // the solution may move this far from the guess (a larger jump: lost)
   double max_step_m = 0.20;
   double information_scale = 1.0;   // multiplies the Hessian (see above)
+  // A sample's residual informs a direction only where its normal leans at least this much towards
+  // it (|n . e| for a translation e, |(p x n) . e| / |p| for a rotation about e, n the 5 x 5
+  // window's normal; 0 = every sample informs every direction). The neighbours' normals of a flat
+  // wall scatter by several degrees across the disparity staircase, and through that scatter every
+  // sample of a plain wall "measures" the slide along it: thousands of them summed to a claimed
+  // 0.3-0.6 mm standard deviation for a slide nothing observes, and the ICP, free to drift along it,
+  // followed the staircase 6-7 cm (a generated living room; recon/tracking/README.md, "Depth
+  // odometry"). 0.2 (11.5 deg) lies well above the wider window's scatter and well below the
+  // alignment of a surface that does face the direction.
+  double min_normal_alignment = 0.2;
 };
 
 struct AlignResult {
