@@ -493,6 +493,76 @@ TEST_F(TrackingTest, FramesWithoutFeaturesAreKeptWithTheRegularisingFactors) {
   EXPECT_LT(error_with, 0.9 * error_without);
 }
 
+TEST_F(TrackingTest, ATurnThatStartsFacingNothingIsPlacedFromTheFramesAfter) {
+  // Every camera sees black for the first frames (the turn starts facing a plain wall): nothing
+  // observes them, and the first reference frame is the output's world. Chained from frame 0 as
+  // though the rotator had stood still, the rest of the turn started where frame 0 was and the
+  // solver left it there: a generated living room was tracked 23 deg short (tracking_graph.h,
+  // gauge_frame; tracking_init.cpp, extrapolate_leading_gap).
+  const auto copy = dir_->path() / "black_start";
+  std::filesystem::copy(scan_->root, copy, std::filesystem::copy_options::recursive);
+  const ScanIndex scan = read_scan_index(copy);
+  constexpr int kLast = 6;  // frames 0-6 of each camera: about 40 deg of the turn
+  for (int s = 0; s < int(scan.frames.size()); ++s)
+    for (int f = 0; f <= kLast; ++f) {
+      const auto path = copy / scan.rig.sensors[s].name / scan.frames[s][f].rgb_file;
+      ImageU8 black = read_rgb(path);
+      std::fill(black.data.begin(), black.data.end(), 0);
+      write_png(path, black);
+    }
+  const FrontendResult frontend = run_frontend(scan, test_tracking_options().frontend);
+  {
+    // The solve holds the first reference frame that has observations, not frame 0, which nothing
+    // observes; the output is moved back to frame 0 (checked below).
+    namespace tg = tracking_graph;
+    const TrackingOptions options = test_tracking_options();
+    tg::TrackingState state = tg::initialise_tracking_state(scan, frontend, options, nullptr);
+    tg::FactorGraph graph;
+    tg::add_observation_factors(graph, state, scan, frontend, options);
+    tg::add_regularisation_factors(graph, state, options);
+    tg::add_velocity_factors(graph, state, options);
+    tg::fix_gauge(graph, state, options);
+    const int ref = scan.rig.reference_sensor, gauge = tg::gauge_frame(state);
+    EXPECT_GT(gauge, kLast);
+    EXPECT_EQ(state.observation_count[std::size_t(ref)][std::size_t(gauge - 1)], 0);
+    EXPECT_GT(state.observation_count[std::size_t(ref)][std::size_t(gauge)], 0);
+    EXPECT_TRUE(graph.problem->IsParameterBlockConstant(state.poses[std::size_t(ref)][std::size_t(gauge)].t));
+    EXPECT_FALSE(graph.problem->IsParameterBlockConstant(state.poses[std::size_t(ref)][0].t));
+  }
+  for (const bool depth_odometry : {false, true}) {
+    TrackingOptions options = test_tracking_options();
+    options.depth_odometry = depth_odometry;
+    const std::string label = depth_odometry ? "black start, + depth odometry" : "black start";
+    const TrackingResult result = track_with_frontend(scan, frontend, options);
+    check_rig_trajectory(result.trajectory, scan, label);
+    const Rigid3d& first =
+        result.trajectory.world_from_cam[std::size_t(scan.rig.reference_sensor)].front().world_from_cam;
+    EXPECT_TRUE(first.isApprox(Rigid3d::Identity(), 1e-9))
+        << label << ": the output's world is the first reference frame";
+    double worst = 0, ate = 0;
+    for (int s = 0; s < int(scan.frames.size()); ++s) {
+      const auto metrics =
+          eval::evaluate_trajectory(truth_->world_from_cam[s], result.trajectory.world_from_cam[s], {}, "truth", label);
+      ate += metrics.ate_m.rmse / double(scan.frames.size());
+      for (std::size_t k = 0; k < metrics.timestamps.size(); ++k)
+        if (metrics.timestamps[k] <= scan.frames[s][kLast].timestamp)
+          worst = std::max(worst, (metrics.gt_positions[k] - metrics.est_positions_aligned[k]).norm());
+    }
+    const TrackingVerdict& verdict = result.verdict;
+    double turn = 0;
+    for (const TrackingCheck& check : verdict.checks)
+      if (check.name == "turn") turn = check.value;
+    std::printf("%s: ATE %.2f mm, worst position error in the black frames %.2f mm, turn %.1f deg, %s\n", label.c_str(),
+                1e3 * ate, 1e3 * worst, turn, verdict.reliable ? "reliable" : verdict.first_failure().c_str());
+    // Measured: 20.3 mm in the black frames and 11.3 mm ATE with Eq. 2-3 alone, 5.2 and 1.5 mm with the
+    // depth odometry; chained from a standing start, 45.6 mm and a turn 334 deg short of one revolution
+    // (refused), and 54.5 and 8.9 mm with the depth odometry.
+    EXPECT_TRUE(verdict.checked && verdict.reliable) << label << ": " << verdict.first_failure();
+    EXPECT_LT(worst, depth_odometry ? 0.015 : 0.030) << label;
+    EXPECT_LT(ate, depth_odometry ? 0.005 : 0.015) << label;
+  }
+}
+
 TEST_F(TrackingTest, SelfCheckPassesACorrectTrajectoryAndCatchesCorruptedOnes) {
   const TrackingResult good = track_with_frontend(*scan_, *frontend_, test_tracking_options());
   ASSERT_TRUE(good.verdict.checked);

@@ -513,17 +513,25 @@ std::shared_ptr<ceres::ParameterBlockOrdering> landmarks_first_ordering(Tracking
 
 }  // namespace
 
+int gauge_frame(const TrackingState& st) {
+  if (!st.use_regularisation) return 0;
+  const std::vector<int>& counts = st.observation_count[std::size_t(st.ref)];
+  const auto observed = std::find_if(counts.begin(), counts.end(), [](int count) { return count > 0; });
+  return observed == counts.end() ? 0 : int(observed - counts.begin());
+}
+
 void fix_gauge(FactorGraph& graph, TrackingState& st, const TrackingOptions& options) {
   ceres::Problem& problem = *graph.problem;
+  const int gauge = gauge_frame(st);
   for (int s = 0; s < st.sensor_count; ++s) {
     for (std::size_t f = 0; f < st.poses[s].size(); ++f) {
       if (!problem.HasParameterBlock(st.poses[s][f].q)) continue;
       problem.SetManifold(st.poses[s][f].q, graph.quaternion_manifold.get());
-      // Gauge: the first reference frame. Without Eq. 2 (ba-only) also the first frame of every camera (without
-      // cross-camera landmarks each camera's bundle adjustment has its own gauge; it stays at the
-      // calibrated extrinsics) and frames without observations (no factor constrains them).
+      // Gauge: gauge_frame's reference frame (tracking_graph.h). Without Eq. 2 (ba-only) also the first frame of
+      // every camera (without cross-camera landmarks each camera's bundle adjustment has its own gauge; it stays
+      // at the calibrated extrinsics) and frames without observations (no factor constrains them).
       const bool unconstrained = !st.use_regularisation && (st.observation_count[s][f] == 0 || f == 0);
-      if ((s == st.ref && f == 0) || unconstrained) {
+      if ((s == st.ref && int(f) == gauge) || unconstrained) {
         problem.SetParameterBlockConstant(st.poses[s][f].q);
         problem.SetParameterBlockConstant(st.poses[s][f].t);
       }
@@ -543,9 +551,9 @@ void fix_gauge(FactorGraph& graph, TrackingState& st, const TrackingOptions& opt
   if (problem.HasParameterBlock(st.axis.q)) problem.SetManifold(st.axis.q, graph.quaternion_manifold.get());
   if (problem.HasParameterBlock(st.rig.q)) {
     problem.SetManifold(st.rig.q, graph.quaternion_manifold.get());
-    // Gauge of T_r: a rotation of T_r about the axis is a shift of every azimuth; the first
-    // reference azimuth is held instead.
-    problem.SetParameterBlockConstant(&st.alpha[st.ref][0]);
+    // Gauge of T_r: a rotation of T_r about the axis is a shift of every azimuth; the gauge frame's
+    // azimuth is held instead.
+    problem.SetParameterBlockConstant(&st.alpha[st.ref][std::size_t(gauge)]);
   }
   // A frame of an active camera outside every factor (ba-only without observations) keeps its start.
   if (options.schur_ordering == "landmarks") graph.schur_ordering = landmarks_first_ordering(st, problem);
@@ -593,6 +601,12 @@ ceres::Solver::Summary solve_tracking_graph(FactorGraph& graph, const TrackingOp
 TrackingResult extract_tracking_result(const TrackingState& st, const ScanIndex& scan, const TrackingOptions& options,
                                        bool* all_finite_out) {
   const int ref = st.ref;
+  // The output's world is the first reference frame (tracking.h); the solve held gauge_frame's.
+  const bool regauge = gauge_frame(st) != 0;
+  const Rigid3d output_from_world = regauge ? st.poses[ref][0].pose().inverse() : Rigid3d::Identity();
+  const auto in_output = [&](const PoseBlock& world_from_x) {
+    return regauge ? Rigid3d(output_from_world * world_from_x.pose()) : world_from_x.pose();
+  };
   TrackingResult result;
   RigTrajectory& trajectory = result.trajectory;
   trajectory.source = std::string("tracked:") + to_string(options.mode);
@@ -604,10 +618,10 @@ TrackingResult extract_tracking_result(const TrackingState& st, const ScanIndex&
         estimated ? st.extrinsics[s].pose() : (s == ref ? Rigid3d::Identity() : scan.rig.sensors[s].ref_from_cam);
   }
   std::vector<Rigid3d> ref_poses;
-  for (const PoseBlock& p : st.poses[ref]) ref_poses.push_back(p.pose());
+  for (const PoseBlock& p : st.poses[ref]) ref_poses.push_back(in_output(p));
   Rigid3d world_from_axis;
   if (st.use_regularisation) {
-    world_from_axis = st.axis.pose();
+    world_from_axis = in_output(st.axis);
   } else {
     const tracking_init::AxisEstimate fitted = tracking_init::fit_axis(ref_poses);
     world_from_axis = axis_frame(fitted.point, fitted.direction, ref_poses[0]);
@@ -622,11 +636,11 @@ TrackingResult extract_tracking_result(const TrackingState& st, const ScanIndex&
     for (std::size_t f = 0; f < scan.frames[s].size(); ++f) {
       Rigid3d pose;
       if (st.active[s]) {
-        pose = st.poses[s][f].pose();
+        pose = in_output(st.poses[s][f]);
       } else if (st.use_regularisation) {  // single-camera mode: the other cameras follow the Eq. 2 model
         const double a = interpolate(st.ref_times, st.alpha[ref], scan.frames[s][f].timestamp);
-        pose =
-            st.axis.pose() * axis_rotation(a) * st.axis.pose().inverse() * st.rig.pose() * trajectory.ref_from_cam[s];
+        pose = in_output(st.axis) * axis_rotation(a) * st.axis.pose().inverse() * st.rig.pose() *
+               trajectory.ref_from_cam[s];
       } else if (st.handheld) {  // ... handheld: the reference camera's pose at that time, through T_c
         pose = reference_pose_at(st.ref_times, ref_poses, scan.frames[s][f].timestamp) * trajectory.ref_from_cam[s];
       } else {  // ... or, without Eq. 2, the rotation about the fitted axis

@@ -6,6 +6,61 @@
 
 namespace panoscan::tracking_init {
 
+namespace {
+
+// The left Jacobian of SO(3) at the rotation vector w (V in exp([w, u]) = [exp(w), V u]).
+Eigen::Matrix3d left_jacobian(const Eigen::Vector3d& w) {
+  const double angle = w.norm();
+  Eigen::Matrix3d hat;
+  hat << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
+  if (angle < 1e-4) return Eigen::Matrix3d::Identity() + 0.5 * hat + hat * hat / 6.0;  // the series
+  return Eigen::Matrix3d::Identity() + (1 - std::cos(angle)) / (angle * angle) * hat +
+         (angle - std::sin(angle)) / (angle * angle * angle) * hat * hat;
+}
+
+// exp(fraction log(step)): the screw motion `step` carried on to `fraction` of itself (negative:
+// backwards). A rotation about an offset axis, as an in-place rotator's, stays on its circle.
+Rigid3d scaled_motion(const Rigid3d& step, double fraction) {
+  const Eigen::AngleAxisd rotation(step.linear());
+  const Eigen::Vector3d w = rotation.angle() * rotation.axis();
+  const Eigen::Vector3d u = left_jacobian(w).inverse() * step.translation();
+  Rigid3d scaled = Rigid3d::Identity();
+  scaled.linear() = Eigen::AngleAxisd(rotation.angle() * fraction, rotation.axis()).toRotationMatrix();
+  scaled.translation() = left_jacobian(fraction * w) * (fraction * u);
+  return scaled;
+}
+
+// Frames before the first verified pair (a turn that starts facing a plain wall) have nothing to
+// chain from, and the loop left them at frame 0's pose: the first verified frame then started the
+// rest of the turn where frame 0 was, as though the rotator had stood still, and the solver did not
+// turn the whole chain with its landmarks back along that weakly determined direction (a generated
+// living room lost 23 deg that way). Instead the first verified motion is carried back in time to
+// frame 0 at its rate (constant velocity, as the loop does forward), and the chain is re-anchored at
+// frame 0.
+void extrapolate_leading_gap(const std::vector<FrameFeatures>& frames, const std::vector<int>& previous,
+                             std::vector<Rigid3d>* world_from_cam) {
+  const int n = int(world_from_cam->size());
+  int first = 1;
+  while (first < n && previous[std::size_t(first)] < 0) ++first;
+  if (first >= n) return;
+  const int start = previous[std::size_t(first)];  // the first frame of the chained stretch
+  const double span = frames[std::size_t(first)].timestamp - frames[std::size_t(start)].timestamp;
+  if (start == 0 && first == 1) return;
+  if (!(span > 0)) return;
+  std::vector<Rigid3d>& poses = *world_from_cam;
+  const Rigid3d start_pose = poses[std::size_t(start)];
+  const Rigid3d step = start_pose.inverse() * poses[std::size_t(first)];
+  for (int f = 0; f < first; ++f) {
+    if (f == start) continue;
+    const double fraction = (frames[std::size_t(f)].timestamp - frames[std::size_t(start)].timestamp) / span;
+    poses[std::size_t(f)] = start_pose * scaled_motion(step, fraction);
+  }
+  const Rigid3d frame0_from_world = poses.front().inverse();
+  for (Rigid3d& pose : poses) pose = frame0_from_world * pose;
+}
+
+}  // namespace
+
 std::vector<Rigid3d> chain_odometry(const FrontendResult& frontend, int sensor, int* verified) {
   const int n = int(frontend.features[sensor].size());
   // previous_from_current[f]: the verified pair (g, f) with the largest g < f.
@@ -32,6 +87,7 @@ std::vector<Rigid3d> chain_odometry(const FrontendResult& frontend, int sensor, 
     }
   }
   if (verified) *verified = count;
+  extrapolate_leading_gap(frontend.features[sensor], previous, &world_from_cam);
   return world_from_cam;
 }
 

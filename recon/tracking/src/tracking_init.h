@@ -11,7 +11,9 @@ namespace panoscan::tracking_init {
 
 // world_from_ref per frame of `sensor` (world = its first frame), chaining the verified
 // frame-to-frame transforms (nearest earlier frame with a verified pair); a frame without one
-// continues at the previous relative motion (constant velocity). `verified` counts the chained frames.
+// continues at the previous relative motion (constant velocity), and the frames before the first
+// verified pair lie back in time along the first verified motion, at its rate. `verified` counts the
+// chained frames.
 std::vector<Rigid3d> chain_odometry(const FrontendResult& frontend, int sensor, int* verified);
 
 struct AxisEstimate {
