@@ -2,6 +2,7 @@
 #include "depth_odometry.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -93,9 +94,15 @@ double coarse_gate(const AlignOptions& o, int iteration) { return o.max_distance
 
 // The directions the residuals are resolved along: the eigenvectors of the rotation and of the
 // translation block of the Hessian at the guess (columns), so that a plane's normal and the
-// directions within it are among them.
+// directions within it are among them; and which of them the samples do not observe.
 struct Directions {
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity(), translation = Eigen::Matrix3d::Identity();
+  std::array<bool, 6> unobserved{};  // (rotations, translations): only the samples facing it inform it
+};
+
+// Per direction of Directions: the information of every sample and of the samples facing it.
+struct FacingShare {
+  std::array<double, 6> all{}, facing{};
 };
 
 struct Linearisation {
@@ -107,13 +114,13 @@ struct Linearisation {
 
 // The normal equations of the point-to-plane residuals at a_from_b, pairs within the gate of
 // iteration `iteration` (the gate halves from max_distance_m down to 4 sigma + one block's footprint).
-// With `directions`, a sample informs a direction only where its surface faces it: the rotation
-// about axis e through b's origin where |(p x n) . e| / |p| >= min_normal_alignment, the translation
-// along e where |n . e| >= min_normal_alignment; its Jacobian's other components are dropped (see
-// AlignOptions::min_normal_alignment for why).
+// With `directions`, a sample informs an unobserved direction only where its surface faces it (the
+// 5 x 5 window's normal: |n . e| >= min_normal_alignment for a translation e, |(p x n) . e| >= that
+// times |p| for a rotation about e); its Jacobian's component along it is dropped otherwise (see
+// AlignOptions::min_normal_alignment for why). `share`, if given, sums each direction's information.
 Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, const std::vector<Eigen::Vector3d>& b,
                         const Rigid3d& a_from_b, int iteration, const AlignOptions& o,
-                        const Directions* directions = nullptr) {
+                        const Directions* directions = nullptr, FacingShare* share = nullptr) {
   Linearisation lin;
   const Eigen::Matrix3d rotation = a_from_b.linear();
   const double c = o.depth_noise_coefficient;
@@ -141,15 +148,25 @@ Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, c
     jacobian.head<3>() = p.cross(n_b) / sigma;  // d r / d omega (X <- X exp(omega, v))
     jacobian.tail<3>() = n_b / sigma;           // d r / d v
     if (directions) {
+      const Eigen::Vector3d wide_b = rotation.transpose() * a.wide_normals[k];
       Eigen::Vector3d about = directions->rotation.transpose() * p.cross(n_b);
       Eigen::Vector3d along = directions->translation.transpose() * n_b;
-      const Eigen::Vector3d wide_b = rotation.transpose() * a.wide_normals[k];
       const Eigen::Vector3d wide_about = directions->rotation.transpose() * p.cross(wide_b);
       const Eigen::Vector3d wide_along = directions->translation.transpose() * wide_b;
       const double arm = p.norm();
       for (int i = 0; i < 3; ++i) {
-        if (std::abs(wide_about[i]) < o.min_normal_alignment * arm) about[i] = 0.0;
-        if (std::abs(wide_along[i]) < o.min_normal_alignment) along[i] = 0.0;
+        const bool faces_rotation = std::abs(wide_about[i]) >= o.min_normal_alignment * arm;
+        const bool faces_translation = std::abs(wide_along[i]) >= o.min_normal_alignment;
+        if (share) {
+          const double rotation_information = weight * about[i] * about[i] / (sigma * sigma);
+          const double translation_information = weight * along[i] * along[i] / (sigma * sigma);
+          share->all[std::size_t(i)] += rotation_information;
+          share->all[std::size_t(3 + i)] += translation_information;
+          if (faces_rotation) share->facing[std::size_t(i)] += rotation_information;
+          if (faces_translation) share->facing[std::size_t(3 + i)] += translation_information;
+        }
+        if (directions->unobserved[std::size_t(i)] && !faces_rotation) about[i] = 0.0;
+        if (directions->unobserved[std::size_t(3 + i)] && !faces_translation) along[i] = 0.0;
       }
       jacobian.head<3>() = directions->rotation * about / sigma;
       jacobian.tail<3>() = directions->translation * along / sigma;
@@ -179,7 +196,9 @@ AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigi
   result.samples = int(source.size());
 
   Rigid3d a_from_b = a_from_b_guess;
-  // The directions the samples are resolved along, from the guess with the first (widest) gate.
+  // The directions the samples are resolved along and which of them they do not observe, from the
+  // guess with the first (widest) gate: a direction most of whose information comes from samples
+  // not facing it is unobserved.
   Directions directions;
   const Directions* resolved = nullptr;
   if (o.min_normal_alignment > 0.0) {
@@ -188,6 +207,10 @@ AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigi
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> translation(first.hessian.bottomRightCorner<3, 3>());
     directions.rotation = rotation.eigenvectors();
     directions.translation = translation.eigenvectors();
+    FacingShare share;
+    linearise(target, a.intrinsics, source, a_from_b, 0, o, &directions, &share);
+    for (std::size_t i = 0; i < 6; ++i)
+      directions.unobserved[i] = !(share.facing[i] >= o.min_facing_share * share.all[i]);
     resolved = &directions;
   }
   int iteration = 0;

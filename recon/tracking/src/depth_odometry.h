@@ -20,12 +20,14 @@
 // a limit cycle of a few hundredths of a sigma, and a fixed tiny threshold (1e-7) ran most pairs to
 // max_iterations for nothing (recon/tracking/README.md, "Depth odometry", Cost).
 //
-// Which directions a sample informs: a wall's samples all but "measure" the slide along it through
-// their normals' scatter (AlignOptions::min_normal_alignment). The rotations and translations are
-// resolved along the eigenvectors of the two blocks of the Hessian at the guess (for a wall: its
-// normal and two directions within it), and a sample's Jacobian keeps a component only where its
-// normal, taken over a 5 x 5-sample window, leans towards that direction; Gauss-Newton and the
-// information then leave an unobserved direction where the guess put it, with no information.
+// Which directions a sample informs: a wall's samples all but "measured" the slide along it
+// through their normals' scatter (AlignOptions::min_normal_alignment). The rotations and translations
+// are resolved along the eigenvectors of the Hessian's two 3 x 3 blocks at the guess (for a wall: its
+// normal and two directions within it). A direction is unobserved when most of its information comes
+// from samples whose normal (over a 5 x 5-sample window) does not lean towards it
+// (min_facing_share); along an unobserved direction only the samples facing it keep their Jacobian's
+// component, so Gauss-Newton and the information leave it where the guess put it (none facing: no
+// information at all). An observed direction keeps every sample.
 //
 // The information: H = sum_k w_k J_k^T J_k / sigma_k^2 at the solution, in the (omega, v) order
 // of a right perturbation, times information_scale. Summing over every block treats their errors
@@ -55,16 +57,22 @@ struct AlignOptions {
   double max_step_deg = 5.0;        // the solution may move this far from the guess (a larger jump: lost)
   double max_step_m = 0.20;
   double information_scale = 1.0;   // multiplies the Hessian (see above)
-  // A sample's residual informs a direction only where its normal leans at least this much towards
-  // it (|n . e| for a translation e, |(p x n) . e| / |p| for a rotation about e, n the 5 x 5
-  // window's normal; 0 = every sample informs every direction). The neighbours' normals of a flat
-  // wall scatter by several degrees across the disparity staircase, and through that scatter every
-  // sample of a plain wall "measures" the slide along it: thousands of them summed to a claimed
-  // 0.3-0.6 mm standard deviation for a slide nothing observes, and the ICP, free to drift along it,
-  // followed the staircase 6-7 cm (a generated living room; recon/tracking/README.md, "Depth
-  // odometry"). 0.2 (11.5 deg) lies well above the wider window's scatter and well below the
-  // alignment of a surface that does face the direction.
+  // A sample faces a direction when its normal (the 5 x 5 window's) leans at least this much towards
+  // it: |n . e| for a translation e, |(p x n) . e| / |p| for a rotation about e (0 = no direction is
+  // ever unobserved). The neighbours' normals of a flat wall scatter by several degrees across the
+  // disparity staircase, and through that scatter every sample of a plain wall "measured" the slide
+  // along it: thousands of them summed to a claimed 0.3-0.6 mm standard deviation for a slide
+  // nothing observes, and the ICP, free to drift along it, followed the staircase 6-7 cm (a
+  // generated living room; recon/tracking/README.md, "Depth odometry"). 0.2 (11.5 deg) lies well
+  // above the wider window's scatter and well below the alignment of a surface that faces the
+  // direction.
   double min_normal_alignment = 0.2;
+  // A direction is unobserved when the samples facing it give less than this share of its
+  // information. Unobserved directions (a wall's slides and the turn about its normal) got 0.00-0.09,
+  // observed ones 0.47-1.00 (rotations, whose lever arms are shorter) and 0.93-1.00 (translations).
+  // Applying the facing rule to every direction instead also dropped the central columns' real
+  // information on the turn about the vertical, and Table 2's single camera lost 25-30%.
+  double min_facing_share = 0.5;
 };
 
 struct AlignResult {
