@@ -21,7 +21,7 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 struct SurfaceGrid {
   int width = 0, height = 0;
   std::vector<Eigen::Vector3d> points;
-  std::vector<Eigen::Vector3d> normals;       // from the four neighbours: the residual's
+  std::vector<Eigen::Vector3d> normals;       // from the 3 x 3 window (the neighbours): the residual's
   std::vector<Eigen::Vector3d> wide_normals;  // from the 5 x 5 window where it lies on one surface, else the same
   std::vector<char> valid, has_normal;
 };
@@ -61,8 +61,8 @@ SurfaceGrid surface_grid(const DepthGrid& grid, double c) {
       // Which directions a sample informs is decided with the wider window's normal (AlignOptions::
       // min_normal_alignment): across the disparity staircase's risers (2 cm at 2.5 m) the
       // neighbours' normals of a plain wall scatter by several degrees, the 5 x 5 window's by a
-      // fraction of that. The residual keeps the neighbours' normal, which follows a surface up to
-      // one block from a crease.
+      // fraction of that. The residual keeps the 3 x 3 window's normal, which follows a surface up to
+      // one block from a crease (the 5 x 5 one there too was worse on real scans).
       const Eigen::Vector3d wide = window_normal(s, i, j, 2, c);
       s.wide_normals[k] = wide.isZero() ? normal : wide;
     }
