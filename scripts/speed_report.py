@@ -35,9 +35,9 @@ PROGRAMS = ["render_benchmark", "eval_benchmark", "tracking_benchmark", "panoram
             "registration_benchmark"]
 # Issue 20's timed aims that one run reads too noisily on the 2-core VM (aims() gives the spreads
 # seen): each also runs alone in REPEATS processes of its own, and its aim is read from their median.
-# Program -> (benchmark name prefix, the JSON files' stem).
-ALONE = {"panorama_benchmark": ("BM_PanoramaSize/1024/", "panorama_repeat"),  # item 4
-         "tracking_benchmark": ("BM_Frontend/640/16/1/", "frontend_repeat")}  # item 3's front end
+# Program -> (benchmark name prefix, the JSON files' stem, the key aims() reads them under).
+ALONE = {"panorama_benchmark": ("BM_PanoramaSize/1024/", "panorama_repeat", "panorama_repeats"),  # item 4
+         "tracking_benchmark": ("BM_Frontend/640/16/1/", "frontend_repeat", "frontend_repeats")}  # item 3
 REPEATS = 3
 
 
@@ -328,13 +328,13 @@ def main():
         results[program] = run_program(path, os.path.join(args.out, program + ".json"), args.filter)["benchmarks"]
         if program in ALONE and not args.filter:
             # The aim again in processes of its own (ALONE, aims() says why): the median of three.
-            name, stem = ALONE[program]
+            name, stem, key = ALONE[program]
             repeats = []
             for k in range(REPEATS):
                 print(f"running {program} {name} alone ({k + 1} of {REPEATS}) ...", file=sys.stderr)
                 repeats += find(run_program(path, os.path.join(args.out, f"{stem}{k + 1}.json"), name)["benchmarks"],
                                 name)
-            results[stem.replace("_repeat", "_repeats")] = repeats
+            results[key] = repeats
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     md = [f"# Speed report, {now}", "",
           f"Machine: {cpu_model()}, {os.cpu_count()} hardware threads. "
