@@ -16,8 +16,8 @@ namespace {
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
-// The grid's samples and, where its four neighbours lie on the same surface, their unit normals
-// (facing the camera; zero where undefined).
+// The grid's samples and, where their 3 x 3 window lies on one surface, their unit normals (facing
+// the camera; zero where undefined).
 struct SurfaceGrid {
   int width = 0, height = 0;
   std::vector<Eigen::Vector3d> points;
@@ -26,13 +26,84 @@ struct SurfaceGrid {
   std::vector<char> valid, has_normal;
 };
 
-// The unit normal of the least-squares plane through the (2 radius + 1)^2 samples around (i, j),
-// facing the camera; zero unless all of them lie on the centre's surface. Its two gradients are the
-// window's weighted differences (sum of d P / sum of d^2).
-Eigen::Vector3d window_normal(const SurfaceGrid& s, int i, int j, int radius, double c);
+// The largest depth difference from z at which a neighbour still lies on z's surface.
+double same_surface_tolerance(double z, double c) { return std::max(0.1 * z, 6.0 * c * z * z); }
 
-bool same_surface(double z, double z_neighbour, double c) {
-  return z_neighbour > 0.0 && std::abs(z_neighbour - z) <= std::max(0.1 * z, 6.0 * c * z * z);
+// Per sample, its row's run of 2 radius + 1 samples centred on it: whether all are valid, their z
+// range, and the sums of P and of di P (di the offset from the centre). Set where the run lies
+// inside the row.
+struct RowRuns {
+  std::vector<char> all_valid;
+  std::vector<double> z_min, z_max;
+  std::vector<Eigen::Vector3d> sum, moment;
+};
+
+RowRuns row_runs(const SurfaceGrid& s, int radius) {
+  const std::size_t n = s.points.size();
+  RowRuns runs;
+  runs.all_valid.assign(n, 0);
+  runs.z_min.assign(n, 0.0);
+  runs.z_max.assign(n, 0.0);
+  runs.sum.assign(n, Eigen::Vector3d::Zero());
+  runs.moment.assign(n, Eigen::Vector3d::Zero());
+  for (int j = 0; j < s.height; ++j)
+    for (int i = radius; i + radius < s.width; ++i) {
+      const std::size_t k = std::size_t(j) * s.width + i;
+      bool all_valid = true;
+      double z_min = s.points[k].z(), z_max = z_min;
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero(), moment = Eigen::Vector3d::Zero();
+      for (int di = -radius; di <= radius && all_valid; ++di) {
+        const std::size_t nb = std::size_t(std::ptrdiff_t(k) + di);
+        all_valid = s.valid[nb] != 0;
+        const Eigen::Vector3d& p = s.points[nb];
+        z_min = std::min(z_min, p.z());
+        z_max = std::max(z_max, p.z());
+        sum += p;
+        moment += double(di) * p;
+      }
+      if (!all_valid) continue;
+      runs.all_valid[k] = 1;
+      runs.z_min[k] = z_min;
+      runs.z_max[k] = z_max;
+      runs.sum[k] = sum;
+      runs.moment[k] = moment;
+    }
+  return runs;
+}
+
+// Per sample, the unit normal of the least-squares plane through the (2 radius + 1)^2 samples around
+// it, facing the camera; zero unless all of them are valid and lie on the centre's surface (within
+// same_surface_tolerance of its depth, tested on the window's z range), and zero at the border. Its two
+// gradients are the window's weighted differences (sum of d P / sum of d^2), summed as the rows'
+// runs (RowRuns) combined down the columns: 2 (2 radius + 1) terms a sample instead of the square.
+std::vector<Eigen::Vector3d> window_normals(const SurfaceGrid& s, int radius, double c) {
+  std::vector<Eigen::Vector3d> normals(s.points.size(), Eigen::Vector3d::Zero());
+  const RowRuns runs = row_runs(s, radius);
+  for (int j = radius; j + radius < s.height; ++j)
+    for (int i = radius; i + radius < s.width; ++i) {
+      const std::size_t k = std::size_t(j) * s.width + i;
+      if (!s.valid[k]) continue;
+      const double z = s.points[k].z();
+      bool all_valid = true;
+      double z_min = z, z_max = z;
+      Eigen::Vector3d along_i = Eigen::Vector3d::Zero(), along_j = Eigen::Vector3d::Zero();
+      for (int dj = -radius; dj <= radius && all_valid; ++dj) {
+        const std::size_t run = std::size_t(std::ptrdiff_t(k) + std::ptrdiff_t(dj) * s.width);
+        all_valid = runs.all_valid[run] != 0;
+        z_min = std::min(z_min, runs.z_min[run]);
+        z_max = std::max(z_max, runs.z_max[run]);
+        along_i += runs.moment[run];
+        along_j += double(dj) * runs.sum[run];
+      }
+      const double tolerance = same_surface_tolerance(z, c);
+      if (!all_valid || z_max - z > tolerance || z - z_min > tolerance) continue;
+      Eigen::Vector3d normal = along_i.cross(along_j);
+      const double norm = normal.norm();
+      if (!(norm > 0.0)) continue;
+      normal /= norm;
+      normals[k] = normal.dot(s.points[k]) > 0.0 ? Eigen::Vector3d(-normal) : normal;
+    }
+  return normals;
 }
 
 SurfaceGrid surface_grid(const DepthGrid& grid, double c) {
@@ -41,7 +112,6 @@ SurfaceGrid surface_grid(const DepthGrid& grid, double c) {
   s.height = grid.depth.height;
   const std::size_t n = std::size_t(s.width) * s.height;
   s.points.assign(n, Eigen::Vector3d::Zero());
-  s.normals.assign(n, Eigen::Vector3d::Zero());
   s.valid.assign(n, 0);
   s.has_normal.assign(n, 0);
   for (int j = 0; j < s.height; ++j)
@@ -50,43 +120,22 @@ SurfaceGrid surface_grid(const DepthGrid& grid, double c) {
         s.points[std::size_t(j) * s.width + i] = grid.point(i, j);
         s.valid[std::size_t(j) * s.width + i] = 1;
       }
-  s.wide_normals.assign(n, Eigen::Vector3d::Zero());
-  for (int j = 1; j + 1 < s.height; ++j)
-    for (int i = 1; i + 1 < s.width; ++i) {
-      const Eigen::Vector3d normal = window_normal(s, i, j, 1, c);
-      if (normal.isZero()) continue;
-      const std::size_t k = std::size_t(j) * s.width + i;
-      s.normals[k] = normal;
-      s.has_normal[k] = 1;
-      // Which directions a sample informs is decided with the wider window's normal (AlignOptions::
-      // min_normal_alignment): across the disparity staircase's risers (2 cm at 2.5 m) the
-      // neighbours' normals of a plain wall scatter by several degrees, the 5 x 5 window's by a
-      // fraction of that. The residual keeps the 3 x 3 window's normal, which follows a surface up to
-      // one block from a crease (the 5 x 5 one there too was worse on real scans).
-      const Eigen::Vector3d wide = window_normal(s, i, j, 2, c);
-      s.wide_normals[k] = wide.isZero() ? normal : wide;
+  s.normals = window_normals(s, 1, c);
+  // Which directions a sample informs is decided with the wider window's normal (AlignOptions::
+  // min_normal_alignment): across the disparity staircase's risers (2 cm at 2.5 m) the neighbours'
+  // normals of a plain wall scatter by several degrees, the 5 x 5 window's by a fraction of that.
+  // The residual keeps the 3 x 3 window's normal, which follows a surface up to one block from a
+  // crease (the 5 x 5 one there too was worse on real scans).
+  s.wide_normals = window_normals(s, 2, c);
+  for (std::size_t k = 0; k < n; ++k) {
+    s.has_normal[k] = !s.normals[k].isZero();
+    if (!s.has_normal[k]) {
+      s.wide_normals[k].setZero();
+    } else if (s.wide_normals[k].isZero()) {
+      s.wide_normals[k] = s.normals[k];
     }
+  }
   return s;
-}
-
-Eigen::Vector3d window_normal(const SurfaceGrid& s, int i, int j, int radius, double c) {
-  if (i < radius || j < radius || i + radius >= s.width || j + radius >= s.height) return Eigen::Vector3d::Zero();
-  const std::size_t k = std::size_t(j) * s.width + i;
-  if (!s.valid[k]) return Eigen::Vector3d::Zero();
-  const double z = s.points[k].z();
-  Eigen::Vector3d along_i = Eigen::Vector3d::Zero(), along_j = Eigen::Vector3d::Zero();
-  for (int dj = -radius; dj <= radius; ++dj)
-    for (int di = -radius; di <= radius; ++di) {
-      const std::size_t nb = std::size_t(j + dj) * s.width + std::size_t(i + di);
-      if (!s.valid[nb] || !same_surface(z, s.points[nb].z(), c)) return Eigen::Vector3d::Zero();
-      along_i += double(di) * s.points[nb];
-      along_j += double(dj) * s.points[nb];
-    }
-  Eigen::Vector3d normal = along_i.cross(along_j);
-  const double norm = normal.norm();
-  if (!(norm > 0.0)) return Eigen::Vector3d::Zero();
-  normal /= norm;
-  return normal.dot(s.points[k]) > 0.0 ? Eigen::Vector3d(-normal) : normal;
 }
 
 // The 3-D pairing gate of iteration `iteration` before its per-sample floor: halves from max_distance_m.
@@ -135,7 +184,7 @@ SourceSamples source_samples(const DepthGrid& b, double c) {
 
 // The whitened Jacobians' rows, kept between linearisations (one alignment runs a dozen).
 struct JacobianRows {
-  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> rows, weighted_rows;
+  Eigen::Matrix<double, Eigen::Dynamic, 6> rows, weighted_rows;  // column k: the k-th component of every row
   Eigen::VectorXd residuals;
 };
 
@@ -215,26 +264,25 @@ Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, c
         if (directions->unobserved[std::size_t(3 + i)] && !faces_translation) along[i] = 0.0;
       }
     }
-    double* jacobian = work.rows.row(count).data();
-    double* weighted = work.weighted_rows.row(count).data();
     for (int i = 0; i < 3; ++i) {
-      jacobian[i] = about[i] * inverse_sigma;
-      jacobian[3 + i] = along[i] * inverse_sigma;
+      work.rows(count, i) = about[i] * inverse_sigma;
+      work.rows(count, 3 + i) = along[i] * inverse_sigma;
     }
-    for (int i = 0; i < 6; ++i) weighted[i] = weight * jacobian[i];
+    for (int i = 0; i < 6; ++i) work.weighted_rows(count, i) = weight * work.rows(count, i);
     work.residuals[count] = r;
     lin.whitened_sq += r * r;
     ++count;
   }
   lin.inliers = int(count);
-  // sum_k w_k J_k J_k^T and sum_k w_k J_k r_k as two matrix products over the rows (a 6 x 6 outer
-  // product per sample was a sixth of the time).
-  const auto rows = work.rows.topRows(count);
-  const auto weighted_rows = work.weighted_rows.topRows(count);
+  // sum_k w_k J_k J_k^T and sum_k w_k J_k r_k as dot products of the stored columns (a 6 x 6 outer
+  // product per sample was a sixth of the time, a matrix product over the rows still a tenth).
   Matrix6d hessian;
-  hessian.noalias() = rows.transpose() * weighted_rows;
   Vector6d gradient;
-  gradient.noalias() = weighted_rows.transpose() * work.residuals.head(count);
+  for (int i = 0; i < 6; ++i) {
+    const auto weighted = work.weighted_rows.col(i).head(count);
+    for (int k = i; k < 6; ++k) hessian(i, k) = hessian(k, i) = weighted.dot(work.rows.col(k).head(count));
+    gradient[i] = weighted.dot(work.residuals.head(count));
+  }
   if (directions) {
     Matrix6d to_tangent = Matrix6d::Zero();
     to_tangent.topLeftCorner<3, 3>() = directions->rotation;
