@@ -600,7 +600,7 @@ TEST_F(TrackingTest, SelfCheckPassesACorrectTrajectoryAndCatchesCorruptedOnes) {
   // revolution, and the loop-closure pairs (end against start) disagree.
   TrackingResult turned = good;
   const Rigid3d& axis = good.trajectory.world_from_axis;
-  const Rigid3d extra = axis * rotation_about(Eigen::Vector3d::UnitZ(), deg2rad(40)) * axis.inverse();
+  const Rigid3d extra = axis * rotation_about(Eigen::Vector3d::UnitZ(), deg2rad(3)) * axis.inverse();
   for (std::size_t s = 0; s < scan_->frames.size(); ++s)
     for (std::size_t f = scan_->frames[s].size() / 2; f < scan_->frames[s].size(); ++f) {
       turned.trajectory.world_from_cam[s][f].world_from_cam =
@@ -610,6 +610,21 @@ TEST_F(TrackingTest, SelfCheckPassesACorrectTrajectoryAndCatchesCorruptedOnes) {
   const std::vector<std::string> turned_failures = failed(turned);
   EXPECT_TRUE(contains(turned_failures, "turn"));
   EXPECT_TRUE(contains(turned_failures, "loop"));
+
+  // Every other frame turned 3 deg about the axis: the turn and the azimuth's direction hold, but
+  // the same-camera pairs' inliers no longer fit the tracked poses (the rotator's step is 6 deg).
+  TrackingResult jittered = good;
+  const Rigid3d jitter = axis * rotation_about(Eigen::Vector3d::UnitZ(), deg2rad(3)) * axis.inverse();
+  for (std::size_t s = 0; s < scan_->frames.size(); ++s)
+    for (std::size_t f = 1; f < scan_->frames[s].size(); f += 2) {
+      jittered.trajectory.world_from_cam[s][f].world_from_cam =
+          jitter * jittered.trajectory.world_from_cam[s][f].world_from_cam;
+      jittered.azimuth_unwrapped_rad[s][f] += deg2rad(3);
+    }
+  const std::vector<std::string> jittered_failures = failed(jittered);
+  EXPECT_TRUE(contains(jittered_failures, "pairs"));
+  EXPECT_FALSE(contains(jittered_failures, "turn"));
+  EXPECT_FALSE(contains(jittered_failures, "monotone"));
 
   // Two reference frames swapped: the azimuth steps back.
   TrackingResult swapped = good;

@@ -307,9 +307,22 @@ PairOutcome match_pair(const PairTask& task, const std::vector<std::vector<Frame
     out.cross_stage = CrossStage::kAccepted;
   }
   out.accepted = true;
-  out.match = {task.sensor_a, task.frame_a, task.sensor_b, task.frame_b, ransac.a_from_b, int(ransac.inliers.size()),
-               task.kind};
-  for (int i : ransac.inliers) out.keypoint_matches.push_back(matches[i]);
+  out.match = {task.sensor_a,
+               task.frame_a,
+               task.sensor_b,
+               task.frame_b,
+               ransac.a_from_b,
+               int(ransac.inliers.size()),
+               task.kind,
+               {},
+               {},
+               {}};
+  for (int i : ransac.inliers) {
+    out.keypoint_matches.push_back(matches[std::size_t(i)]);
+    out.match.points_a.push_back(pa[std::size_t(i)]);
+    out.match.points_b.push_back(pb[std::size_t(i)]);
+    out.match.thresholds.push_back(thresholds[std::size_t(i)]);
+  }
   return out;
 }
 
@@ -609,12 +622,18 @@ std::vector<PairOutcome> match_across_cameras(const ScanIndex& scan, const Front
                   task.frame_b,
                   out.band.a_from_b,
                   int(out.band.matches.size()),
-                  FramePairMatch::Kind::kCrossCamera};
+                  FramePairMatch::Kind::kCrossCamera,
+                  {},
+                  {},
+                  {}};
     FrameFeatures& fa = result.features[relation.sensor_a][task.frame_a];
     FrameFeatures& fb = result.features[relation.sensor_b][task.frame_b];
     for (const cross_camera::BandMatch& m : out.band.matches)
       pair.keypoint_matches.push_back({keypoint_at(fa, m.in_a, orb_count[relation.sensor_a][task.frame_a]),
                                        keypoint_at(fb, m.in_b, orb_count[relation.sensor_b][task.frame_b])});
+    matched_points(fa, fb, scan.rig.sensors[std::size_t(relation.sensor_a)].intrinsics,
+                   scan.rig.sensors[std::size_t(relation.sensor_b)].intrinsics, options, pair.keypoint_matches,
+                   &pair.match.points_a, &pair.match.points_b, &pair.match.thresholds);
     accepted.push_back(std::move(pair));
   }
   return accepted;

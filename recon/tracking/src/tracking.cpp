@@ -64,8 +64,8 @@ void TrackingVerifyOptions::check(const std::string& origin) const {
   require(min_turn_deg >= 0 && min_turn_deg <= max_turn_deg, "track.verify.min_turn_deg",
           "must be >= 0 and at most track.verify.max_turn_deg");
   require(max_backward_step_deg >= 0, "track.verify.max_backward_step_deg", "must be >= 0");
-  require(pair_rotation_tolerance_deg > 0, "track.verify.pair_rotation_tolerance_deg", "must be > 0");
-  require(pair_translation_tolerance_m > 0, "track.verify.pair_translation_tolerance_m", "must be > 0");
+  require(min_pair_inlier_share > 0 && min_pair_inlier_share <= 1, "track.verify.min_pair_inlier_share",
+          "must be in (0, 1]");
   require(min_consistent_pair_share >= 0 && min_consistent_pair_share <= 1, "track.verify.min_consistent_pair_share",
           "must be in [0, 1]");
   require(min_consistent_loop_share >= 0 && min_consistent_loop_share <= 1, "track.verify.min_consistent_loop_share",
@@ -188,10 +188,7 @@ TrackingOptions tracking_options_from_config(Config& config) {
   v.max_turn_deg = config.get_double("track.verify.max_turn_deg", v.max_turn_deg, 0.0, 3600.0);
   v.max_backward_step_deg =
       config.get_double("track.verify.max_backward_step_deg", v.max_backward_step_deg, 0.0, 360.0);
-  v.pair_rotation_tolerance_deg =
-      config.get_double("track.verify.pair_rotation_tolerance_deg", v.pair_rotation_tolerance_deg, 1e-4, 180.0);
-  v.pair_translation_tolerance_m =
-      config.get_double("track.verify.pair_translation_tolerance_m", v.pair_translation_tolerance_m, 1e-6, 10.0);
+  v.min_pair_inlier_share = config.get_double("track.verify.min_pair_inlier_share", v.min_pair_inlier_share, 1e-6, 1.0);
   v.min_consistent_pair_share =
       config.get_double("track.verify.min_consistent_pair_share", v.min_consistent_pair_share, 0.0, 1.0);
   v.min_consistent_loop_share =

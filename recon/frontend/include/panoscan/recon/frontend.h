@@ -132,6 +132,13 @@ struct FramePairMatch {
   Rigid3d a_from_b = Rigid3d::Identity();
   int inliers = 0;
   enum class Kind { kSameCamera, kCrossCamera, kLoop } kind = Kind::kSameCamera;
+  // The correspondences the transform rests on (RANSAC's inliers; a band pair's matches): a's and b's
+  // back-projected keypoints in their cameras' frames, and each correspondence's inlier threshold in
+  // metres (its 3-D difference's std times frontend.ransac_sigmas, as RANSAC used it). The tracking's
+  // self-check holds a trajectory against these rather than against a_from_b, which few or far
+  // features leave uncertain by degrees (recon/tracking/README.md, "The self-check").
+  std::vector<Eigen::Vector3d> points_a, points_b;
+  std::vector<double> thresholds;
 };
 
 // Where cross-camera candidate pairs are lost, step by step (the diagnosis of the narrow overlap:
