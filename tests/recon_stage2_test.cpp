@@ -423,6 +423,14 @@ TEST(Stage2Commands, BadInputIsAClearErrorAndWritesNothing) {
       {"broken.json"});
   expect_failure_naming(run_panoscan("recon register" + pair + " --method icp-best --out " + out),
                         {"registration.method"});
+  // The ORB guess's settings are keys: out of range named, and in range used (no overlapping office pair
+  // has a million consistent matches, so the guess fails and says why).
+  expect_failure_naming(
+      run_panoscan("recon register" + pair + " --set registration.features.min_inliers=2 --out " + out),
+      {"registration.features.min_inliers"});
+  expect_failure_naming(
+      run_panoscan("recon register" + pair + " --set registration.features.min_inliers=1000000 --out " + out),
+      {"initial guess", "feature matches"});
   expect_failure_naming(run_panoscan("recon register --source " + (f.tmp / "missing").string() + " --target " +
                                      f.b.string() + " --out " + out),
                         {"missing"});

@@ -301,7 +301,17 @@ PairRegistrationOptions pair_registration_options_from_config(Config& config) {
       config.get_string("registration.surface_covariance", cloud.surface.metric_scale ? "metric" : "unit",
                         {"unit", "metric"}) == "metric";
   cloud.surface.threads = icp.threads;
-  options.features.seed = config.get_u64("seed", 1);
+  // The ORB + RANSAC initial guess (feature_alignment.h); checked as a whole by FeatureAlignmentOptions::check.
+  FeatureAlignmentOptions& features = options.features;
+  features.max_features = config.get_int("registration.features.max_features", features.max_features, 10, 1000000);
+  features.ratio_test = config.get_double("registration.features.ratio_test", features.ratio_test, 1e-6, 1.0);
+  features.max_hamming = config.get_int("registration.features.max_hamming", features.max_hamming, 1, 256);
+  features.inlier_threshold_m =
+      config.get_double("registration.features.inlier_threshold_m", features.inlier_threshold_m, 1e-4, 10.0);
+  features.ransac_iterations =
+      config.get_int("registration.features.ransac_iterations", features.ransac_iterations, 1, 10000000);
+  features.min_inliers = config.get_int("registration.features.min_inliers", features.min_inliers, 3, 1000000);
+  features.seed = config.get_u64("seed", 1);
   return options;
 }
 

@@ -10,12 +10,14 @@
 namespace panoscan {
 
 void FeatureAlignmentOptions::check() const {
-  if (max_features < 10) throw make_error("", "features.max_features", "must be at least 10");
-  if (!(ratio_test > 0 && ratio_test <= 1)) throw make_error("", "features.ratio_test", "must be in (0, 1]");
-  if (max_hamming < 1 || max_hamming > 256) throw make_error("", "features.max_hamming", "must be in [1, 256]");
-  if (!(inlier_threshold_m > 0)) throw make_error("", "features.inlier_threshold_m", "must be positive");
-  if (ransac_iterations < 1) throw make_error("", "features.ransac_iterations", "must be at least 1");
-  if (min_inliers < 3) throw make_error("", "features.min_inliers", "must be at least 3");
+  if (max_features < 10) throw make_error("", "registration.features.max_features", "must be at least 10");
+  if (!(ratio_test > 0 && ratio_test <= 1))
+    throw make_error("", "registration.features.ratio_test", "must be in (0, 1]");
+  if (max_hamming < 1 || max_hamming > 256)
+    throw make_error("", "registration.features.max_hamming", "must be in [1, 256]");
+  if (!(inlier_threshold_m > 0)) throw make_error("", "registration.features.inlier_threshold_m", "must be positive");
+  if (ransac_iterations < 1) throw make_error("", "registration.features.ransac_iterations", "must be at least 1");
+  if (min_inliers < 3) throw make_error("", "registration.features.min_inliers", "must be at least 3");
 }
 
 PanoramaFeatures detect_panorama_features(const PanoramaImages& images, const FeatureAlignmentOptions& options,
