@@ -625,6 +625,18 @@ TEST_F(TrackingTest, SelfCheckPassesACorrectTrajectoryAndCatchesCorruptedOnes) {
   EXPECT_TRUE(contains(jittered_failures, "pairs"));
   EXPECT_FALSE(contains(jittered_failures, "turn"));
   EXPECT_FALSE(contains(jittered_failures, "monotone"));
+  // The same for one outer camera alone: pooled with the other cameras' pairs, 228 of 258 still agreed
+  // (0.88); its own pairs do not.
+  TrackingResult one_jittered = good;
+  const std::size_t outer_sensor = scan_->rig.reference_sensor == 0 ? 1 : 0;
+  for (std::size_t f = 1; f < scan_->frames[outer_sensor].size(); f += 2)
+    one_jittered.trajectory.world_from_cam[outer_sensor][f].world_from_cam =
+        jitter * one_jittered.trajectory.world_from_cam[outer_sensor][f].world_from_cam;
+  const TrackingVerdict one = verify_tracking(one_jittered, *scan_, *frontend_, observations, {}, options);
+  EXPECT_FALSE(one.reliable);
+  EXPECT_EQ(one.first_failure().rfind("pairs:", 0), 0u) << one.first_failure();
+  EXPECT_NE(one.first_failure().find(scan_->rig.sensors[outer_sensor].name + " alone"), std::string::npos)
+      << one.first_failure();
 
   // Two reference frames swapped: the azimuth steps back.
   TrackingResult swapped = good;

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -33,6 +35,7 @@ namespace {
 struct PairCheck {
   int pairs = 0, consistent = 0;
   int worst_kept = 0, worst_inliers = 0;  // the pair whose inliers the trajectory explains least
+  std::vector<int> pairs_of, consistent_of;  // per sensor: the pairs it is in (a cross-camera pair counts for both)
 };
 
 // Tracked against the front end's verified pairs of one kind: a pair agrees when the tracked
@@ -44,6 +47,8 @@ struct PairCheck {
 PairCheck check_pairs(const TrackingResult& result, const FrontendResult& frontend,
                       const std::vector<std::vector<int>>& observations, bool loop, const TrackingVerifyOptions& v) {
   PairCheck out;
+  out.pairs_of.assign(observations.size(), 0);
+  out.consistent_of.assign(observations.size(), 0);
   double worst_share = 2.0;
   for (const FramePairMatch& p : frontend.pairs) {
     if ((p.kind == FramePairMatch::Kind::kLoop) != loop) continue;
@@ -62,8 +67,14 @@ PairCheck check_pairs(const TrackingResult& result, const FrontendResult& fronte
       kept += (tracked * p.points_b[k] - p.points_a[k]).norm() <= p.thresholds[k];
     const int inliers = int(p.points_a.size());
     const double share = double(kept) / inliers;
+    const bool consistent = share >= v.min_pair_inlier_share;
     ++out.pairs;
-    out.consistent += share >= v.min_pair_inlier_share;
+    out.consistent += consistent;
+    for (const int sensor : {p.sensor_a, p.sensor_b}) {
+      ++out.pairs_of[std::size_t(sensor)];
+      out.consistent_of[std::size_t(sensor)] += consistent;
+      if (p.sensor_b == p.sensor_a) break;
+    }
     if (share < worst_share) {
       worst_share = share;
       out.worst_kept = kept;
@@ -177,15 +188,34 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
   // pairs and loop: the front end's verified frame pairs.
   for (const bool loop : {false, true}) {
     const PairCheck p = check_pairs(result, frontend, observations, loop, v);
-    const double share = p.pairs > 0 ? double(p.consistent) / p.pairs : 1.0;
+    const double pooled = p.pairs > 0 ? double(p.consistent) / p.pairs : 1.0;
     const char* what = loop ? "loop-closure pairs" : "verified frame pairs";
     const double min_share = loop ? v.min_consistent_loop_share : v.min_consistent_pair_share;
+    // The same-camera pairs are also held per camera: pooled, one camera's wrong trajectory hides
+    // among the others' pairs (every other frame of one camera turned 3 deg: 228 of 258 agreed). A
+    // camera counts once one disagreeing pair of its own cannot sink it below min_share alone:
+    // 1 / (1 - min_share) pairs (5 at 0.8). Loop pairs stay pooled: a repetitive room's false loop
+    // matches can crowd one camera's few.
+    double share = pooled;
+    std::string worst_camera;
+    if (!loop) {
+      const double needed = min_share < 1.0 ? std::ceil(1.0 / (1.0 - min_share) - 1e-9) : 1.0;
+      for (std::size_t s = 0; s < p.pairs_of.size(); ++s) {
+        if (p.pairs_of[s] < needed) continue;
+        const double camera_share = double(p.consistent_of[s]) / p.pairs_of[s];
+        if (camera_share < share) {
+          share = camera_share;
+          worst_camera =
+              fmt::format("; {} alone: {} of {}", scan.rig.sensors[s].name, p.consistent_of[s], p.pairs_of[s]);
+        }
+      }
+    }
     add(loop ? "loop" : "pairs", share >= min_share, share, min_share,
-        p.pairs == 0
-            ? fmt::format("no {} to compare with", what)
-            : fmt::format("{} of {} {} agree with the tracked poses (the poses keep at least {:.0f}% of the "
-                          "pair's RANSAC inliers; the worst keeps {} of {})",
-                          p.consistent, p.pairs, what, 100.0 * v.min_pair_inlier_share, p.worst_kept, p.worst_inliers));
+        p.pairs == 0 ? fmt::format("no {} to compare with", what)
+                     : fmt::format("{} of {} {} agree with the tracked poses (the poses keep at least {:.0f}% of the "
+                                   "pair's RANSAC inliers; the worst keeps {} of {}){}",
+                                   p.consistent, p.pairs, what, 100.0 * v.min_pair_inlier_share, p.worst_kept,
+                                   p.worst_inliers, worst_camera));
   }
 
   // residuals
