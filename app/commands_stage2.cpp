@@ -219,6 +219,8 @@ void run_recon_register(const ReconRegisterArguments& a) {
               {"target_features", r.guess.target_features},
               {"matches", r.guess.matches},
               {"inliers", r.guess.inliers},
+              {"guided_matches", r.guess.guided_matches},
+              {"evidence", r.guess.evidence()},
               {"inlier_rmse_m", r.guess.inlier_rmse_m},
               {"consistent_with_result", r.consistent_matches}};
   j["icp"] = icp_json(r.icp, options.icp);
@@ -226,6 +228,7 @@ void run_recon_register(const ReconRegisterArguments& a) {
   if (r.alternative_refined) {
     const Rigid3d between = r.alternative_target_from_source.inverse() * r.target_from_source;
     j["alternative"] = {{"orb_inliers", r.guess.alternative_inliers},
+                        {"guided_matches", r.guess.alternative_guided_matches},
                         {"target_from_source", pose_to_json(r.alternative_target_from_source)},
                         {"overlap", r.alternative_overlap},
                         {"consistent_matches", r.alternative_consistent_matches},
@@ -245,11 +248,11 @@ void run_recon_register(const ReconRegisterArguments& a) {
   write_register_outputs(a, matrix, j, r.target_from_source);
   const Eigen::Vector3d t = r.target_from_source.translation();
   std::cout << fmt::format(
-      "registered {} -> {} ({}): t = ({:.4f}, {:.4f}, {:.4f}) m, rotation {:.3f} deg; initial {} ({} ORB inliers, "
-      "{} consistent at the end); {} iterations, fitness {:.2f}, {:.1f} s; wrote {} and {}\n",
+      "registered {} -> {} ({}): t = ({:.4f}, {:.4f}, {:.4f}) m, rotation {:.3f} deg; initial {} ({} ORB inliers + "
+      "{} guided, {} consistent at the end); {} iterations, fitness {:.2f}, {:.1f} s; wrote {} and {}\n",
       a.source, a.target, to_string(options.icp.method), t.x(), t.y(), t.z(),
       rad2deg(rotation_angle(r.target_from_source.linear())), initial ? "given" : "ORB + RANSAC", r.guess.inliers,
-      r.consistent_matches, r.icp.iterations, r.icp.fitness, seconds, a.out, matrix);
+      r.guess.guided_matches, r.consistent_matches, r.icp.iterations, r.icp.fitness, seconds, a.out, matrix);
 }
 
 void run_recon_integrate(const ReconIntegrateArguments& a) {

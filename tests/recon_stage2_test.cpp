@@ -99,6 +99,43 @@ TEST(Stage2, RegistersTwoOfficePanoramasAndRejectsAWrongGivenPose) {
   }
 }
 
+TEST(Stage2, APlainRoomsFewRatioTestMatchesAreCompletedByTheGuidedSearch) {
+  // The office at the ICL-NUIM density (plain walls) in 256-row panoramas: over the whole panorama
+  // the ratio test keeps few true matches (similar corners everywhere), too few for
+  // features.min_inliers on their own. The search guided by RANSAC's pose finds the features that
+  // agree within 5 cm, and the guess is taken. With the guided search off (guided_max_hamming 0) the
+  // guess fails: that is what the search is for.
+  const Scene scene = scenes::make_builtin_scene("office");
+  const Renderer renderer(scene);
+  const Rigid3d world_from_target = pose_at(scene, 0, 0.0), world_from_source = pose_at(scene, 3, -0.9);
+  const Panorama target = synthetic_panorama(renderer, world_from_target, 256, 50);
+  const Panorama source = synthetic_panorama(renderer, world_from_source, 256, 63);
+  const Rigid3d truth = world_from_target.inverse() * world_from_source;
+  PairRegistrationOptions options;
+  options.cloud.pixel_stride = 1;
+  const PairRegistration r = register_panorama_pair(source, target, options, nullptr, "SO-4", "SO-1");
+  const double rotation_error = rad2deg(rotation_angle(r.target_from_source.linear().transpose() * truth.linear()));
+  const double translation_error = (r.target_from_source.translation() - truth.translation()).norm();
+  std::printf(
+      "SO-4 -> SO-1 at H = 256: %d of %d matches consistent, %d guided; %d consistent at the end; error %.3f "
+      "deg, %.1f mm\n",
+      r.guess.inliers, r.guess.matches, r.guess.guided_matches, r.consistent_matches, rotation_error,
+      translation_error * 1e3);
+  EXPECT_LT(r.guess.inliers, options.features.min_inliers);
+  EXPECT_GE(r.guess.evidence(), options.features.min_inliers);
+  EXPECT_LT(rotation_error, 0.1);
+  EXPECT_LT(translation_error, 0.005);
+
+  PairRegistrationOptions unguided = options;
+  unguided.features.guided_max_hamming = 0;
+  try {
+    register_panorama_pair(source, target, unguided, nullptr, "SO-4", "SO-1");
+    ADD_FAILURE() << "registered without the guided search";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("initial guess"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Stage2, APointSymmetricPairIsRefusedAsAmbiguousAndRegistersFromAGivenPose) {
   // The built-in office is nearly point-symmetric about its centre, and SO-1 and SO-2 mirror each
   // other through it: the ORB majority votes for the mirrored pose (about 180 degrees and 2.5 m off)
@@ -237,6 +274,64 @@ TEST(Stage2, PoseGraphOverFourOfficePositionsLowersTheWorstInconsistency) {
   auto at_room_scale = [](const EdgeDiscrepancy& d) { return d.translation_m + 3.0 * deg2rad(d.rotation_deg); };
   EXPECT_LT(at_room_scale(result.inconsistency_final), at_room_scale(result.inconsistency_chained));
   EXPECT_LT(worst_error_mm, 5.0);
+}
+
+TEST(Stage2, AScanWhosePairWithTheScanBeforeIsRefusedIsPlacedByItsOtherPairs) {
+  // SO-3, SO-1, SO-2 in that order: the consecutive pair SO-2 -> SO-1 is the point-symmetric one
+  // refused as ambiguous above (the same panoramas), SO-2 -> SO-3 and SO-1 -> SO-3 register. SO-2
+  // is placed through SO-3. (Before, a refused consecutive pair stopped the scene.)
+  const Scene scene = scenes::make_builtin_scene("office");
+  const Renderer renderer(scene);
+  std::vector<Panorama> panoramas;
+  panoramas.push_back(synthetic_panorama(renderer, pose_at(scene, 2, -0.4), 512, 7));
+  panoramas.push_back(synthetic_panorama(renderer, pose_at(scene, 0, 0.0), 512, 3));
+  panoramas.push_back(synthetic_panorama(renderer, pose_at(scene, 1, deg2rad(20)), 512, 4));
+  const std::vector<std::string> names = {"SO-3", "SO-1", "SO-2"};
+  SceneOptions options;
+  options.registration.cloud.pixel_stride = 2;
+  SceneResult result;
+  register_scene_panoramas(panoramas, names, options, result);
+  ASSERT_EQ(result.world_from_panorama.size(), 3u);
+  bool refused_consecutive = false;
+  for (const std::string& skipped : result.skipped_pairs) {
+    std::printf("skipped: %s\n", skipped.c_str());
+    refused_consecutive |= skipped.find("SO-2 -> SO-1") != std::string::npos;
+  }
+  EXPECT_TRUE(refused_consecutive);
+  // Positions relative to the first panorama, which keeps its pose.
+  for (std::size_t k = 0; k < 3; ++k) {
+    const double error_m =
+        (result.world_from_panorama[k].translation() - panoramas[k].world_from_pano.translation()).norm();
+    std::printf("%s: position error %.2f mm\n", names[k].c_str(), error_m * 1e3);
+    EXPECT_LT(error_m, 0.005) << names[k];
+  }
+
+  // Without the other pairs the refused consecutive pair is the scan's only link: the scene stops,
+  // naming the pair.
+  options.register_all_pairs = false;
+  SceneResult consecutive_only;
+  try {
+    register_scene_panoramas(panoramas, names, options, consecutive_only);
+    ADD_FAILURE() << "placed SO-2 without a registration";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("SO-2 -> SO-1"), std::string::npos) << e.what();
+  }
+
+  // A scan no pair links (a panorama without texture: no features) is an error naming the scan and
+  // its pairs' reasons.
+  Panorama blank = panoramas[2];
+  std::fill(blank.colour.data.begin(), blank.colour.data.end(), 0.5f);
+  options.register_all_pairs = true;
+  SceneResult unlinked;
+  try {
+    register_scene_panoramas({panoramas[0], panoramas[1], blank}, names, options, unlinked);
+    ADD_FAILURE() << "placed a panorama without features";
+  } catch (const Error& e) {
+    std::printf("unlinked: %s\n", e.what());
+    EXPECT_NE(std::string(e.what()).find("SO-2"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("no registration that succeeded links it"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("initial guess"), std::string::npos) << e.what();
+  }
 }
 
 // ---- The commands `panoscan recon register` and `panoscan recon integrate` on panorama folders.
@@ -431,6 +526,9 @@ TEST(Stage2Commands, BadInputIsAClearErrorAndWritesNothing) {
   expect_failure_naming(
       run_panoscan("recon register" + pair + " --set registration.features.min_inliers=1000000 --out " + out),
       {"initial guess", "feature matches"});
+  expect_failure_naming(
+      run_panoscan("recon register" + pair + " --set registration.features.guided_max_hamming=257 --out " + out),
+      {"registration.features.guided_max_hamming"});
   expect_failure_naming(run_panoscan("recon register --source " + (f.tmp / "missing").string() + " --target " +
                                      f.b.string() + " --out " + out),
                         {"missing"});

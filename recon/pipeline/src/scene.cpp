@@ -18,6 +18,11 @@ void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std:
   auto start = steady_now();
   // Each panorama's cloud (with surfaces) and ORB features once, not once per pair it is in.
   std::vector<PreparedPanorama> prepared;
+  struct PairFailure {
+    int source, target;
+    std::string reason;
+  };
+  std::vector<PairFailure> failures;
   for (int k = 0; k < n; ++k) prepared.push_back(prepare_panorama_for_registration(panoramas[k], options.registration, names[k]));
   for (int target = 0; target < n; ++target)
     for (int source = target + 1; source < n; ++source) {
@@ -30,11 +35,37 @@ void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std:
                       register_panorama_pair(prepared[source], prepared[target], options.registration, nullptr)};
         result.edges.push_back(std::move(edge));
       } catch (const Error& e) {
-        if (consecutive) throw;
+        // Without the other pairs, a consecutive pair is the only link of its scan.
+        if (consecutive && !options.register_all_pairs) throw;
         result.skipped_pairs.push_back(std::string(e.what()));
+        failures.push_back({source, target, e.what()});
         log_warn(fmt::format("skipped: {}", e.what()));
       }
     }
+  // A scan the registrations that succeeded do not link to the first cannot be placed: say why its
+  // own pairs failed (its consecutive pair's reason first), not only that it is unlinked.
+  {
+    std::vector<int> group(n);
+    for (int k = 0; k < n; ++k) group[k] = k;
+    auto root = [&](int k) {
+      while (group[k] != k) k = group[k] = group[group[k]];
+      return k;
+    };
+    for (const PairEdge& e : result.edges) group[root(e.source)] = root(e.target);
+    for (int k = 1; k < n; ++k) {
+      if (root(k) == root(0)) continue;
+      // Its pair with the scan before it first, then its other failed pairs in order.
+      std::string reasons;
+      for (int pass = 0; pass < 2; ++pass)
+        for (const PairFailure& f : failures) {
+          const bool with_previous = f.source == k && f.target == k - 1;
+          if ((f.source == k || f.target == k) && with_previous == (pass == 0))
+            reasons += (reasons.empty() ? "" : "; ") + f.reason;
+        }
+      throw make_error(names[k], "registrations",
+                       "no registration that succeeded links it to " + names[0] + " (" + reasons + ")");
+    }
+  }
 
   // Poses: the one placement rule of recon scene and recon integrate (placement.h).
   std::vector<PoseGraphEdge> graph_edges;

@@ -212,6 +212,7 @@ PairRegistration register_panorama_pair(const PreparedPanorama& source, const Pr
             result.guess, result.alternative_target_from_source, options.consistency_threshold_m);
         std::swap(result.guess.target_from_source, result.guess.alternative_target_from_source);
         std::swap(result.guess.inliers, result.guess.alternative_inliers);
+        std::swap(result.guess.guided_matches, result.guess.alternative_guided_matches);
       } else if (distinct && result.alternative_overlap >= result.overlap - options.ambiguity_margin) {
         throw make_error(
             pair, "registration",
@@ -227,11 +228,12 @@ PairRegistration register_panorama_pair(const PreparedPanorama& source, const Pr
   // feature matches can (a wrong pose explains few of them).
   // A given pose at the ORB runner-up (the true pose of a symmetric pair, say) is held to the
   // runner-up's matches, not to the majority it contradicts.
-  int verified = result.guess.inliers;
+  // The evidence counts the guided matches too (feature_alignment.h), which the matched points hold.
+  int verified = result.guess.evidence();
   if (given_initial && result.guess.alternative_inliers > 0) {
     const Rigid3d to_alternative = result.guess.alternative_target_from_source.inverse() * result.target_from_source;
     if (rad2deg(rotation_angle(to_alternative.linear())) <= 2.0 && to_alternative.translation().norm() <= 0.1)
-      verified = result.guess.alternative_inliers;
+      verified = result.guess.alternative_evidence();
   }
   if (verified >= options.features.min_inliers) {
     result.consistent_matches =
@@ -311,6 +313,8 @@ PairRegistrationOptions pair_registration_options_from_config(Config& config) {
   features.ransac_iterations =
       config.get_int("registration.features.ransac_iterations", features.ransac_iterations, 1, 10000000);
   features.min_inliers = config.get_int("registration.features.min_inliers", features.min_inliers, 3, 1000000);
+  features.guided_max_hamming =
+      config.get_int("registration.features.guided_max_hamming", features.guided_max_hamming, 0, 256);
   features.seed = config.get_u64("seed", 1);
   return options;
 }

@@ -28,8 +28,9 @@ struct SceneOptions {
   PanoramaOptions panorama;
   PairRegistrationOptions registration;
   IntegrationOptions integration;
-  // Pairs of scans registered: consecutive scans (in the order given) must register; every
-  // other pair is tried too and used when it succeeds (redundancy for the pose graph).
+  // Pairs of scans registered: every pair is tried and used when it succeeds (redundancy for the
+  // pose graph); every scan must be linked to the first by pairs that succeed. Off: consecutive
+  // scans (in the order given) only, and each must register.
   bool register_all_pairs = true;
   // How the registrations place the panoramas (placement.h): a registration that contradicts the
   // chain of consecutive ones is dropped and listed in skipped_pairs.
@@ -60,16 +61,17 @@ struct SceneResult {
   double seconds_pose_graph = 0;
 };
 
-// Stage 2's poses for built panoramas: pairwise registrations (consecutive ones must succeed, the
-// other pairs are tried when options.register_all_pairs), then place_panoramas (placement.h) from
+// Stage 2's poses for built panoramas: pairwise registrations (every pair when
+// options.register_all_pairs, else the consecutive ones), then place_panoramas (placement.h) from
 // the first panorama (which stays at its world_from_pano). Fills edges (the kept ones),
 // skipped_pairs (failed and dropped), world_from_panorama(_chained), pose_graph_used, the
-// inconsistencies and seconds_registration of `result`. Throws Error naming a consecutive pair
-// that fails.
+// inconsistencies and seconds_registration of `result`. Throws Error naming a scan that the pairs
+// that succeeded do not link to the first, with its pairs' reasons (without register_all_pairs:
+// naming the consecutive pair that fails).
 void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std::vector<std::string>& names,
                               const SceneOptions& options, SceneResult& result);
 
-// Throws Error when a consecutive pair does not register (naming the pair) or a stage fails.
+// Throws Error when a scan cannot be placed (register_scene_panoramas) or a stage fails.
 SceneResult reconstruct_scene(const std::vector<SceneScan>& scans, const SceneOptions& options);
 
 // Keys: those of tracking_options_from_config (track.*, frontend.*), panorama_options_from_config
