@@ -199,7 +199,7 @@ PairRegistration register_panorama_pair(const PreparedPanorama& source, const Pr
       const double rotation_deg = rad2deg(rotation_angle(between.linear()));
       const double translation_m = between.translation().norm();
       // The same basin (within the loop-closure tolerances of placement.h): no ambiguity.
-      const bool distinct = rotation_deg > 2.0 || translation_m > 0.1;
+      const bool distinct = !same_registration_basin(result.alternative_target_from_source, result.target_from_source);
       if (distinct && result.alternative_overlap > result.overlap + options.ambiguity_margin) {
         // The runner-up fits the geometry clearly better: ORB's majority was the wrong one.
         log_warn(fmt::format("{}: the runner-up ORB hypothesis ({} matches) fits better after ICP (overlap {:.3f} "
@@ -231,8 +231,7 @@ PairRegistration register_panorama_pair(const PreparedPanorama& source, const Pr
   // The evidence counts the guided matches too (feature_alignment.h), which the matched points hold.
   int verified = result.guess.evidence();
   if (given_initial && result.guess.alternative_inliers > 0) {
-    const Rigid3d to_alternative = result.guess.alternative_target_from_source.inverse() * result.target_from_source;
-    if (rad2deg(rotation_angle(to_alternative.linear())) <= 2.0 && to_alternative.translation().norm() <= 0.1)
+    if (same_registration_basin(result.guess.alternative_target_from_source, result.target_from_source))
       verified = result.guess.alternative_evidence();
   }
   if (verified >= options.features.min_inliers) {

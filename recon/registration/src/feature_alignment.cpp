@@ -170,10 +170,13 @@ FeatureAlignment align_panorama_features(const PanoramaFeatures& from, const Pan
       rest_to.push_back(matched_to[std::size_t(i)]);
       rest_index.push_back(i);
     }
+  // A runner-up in the best pose's basin (matches just outside the threshold agreeing on a nearly
+  // equal pose) is the same hypothesis: refining it would be a second GICP for nothing.
   RigidRansacResult second;
   if (rest_from.size() >= 3 &&
       rigid_ransac(rest_to, rest_from, std::vector<double>(rest_from.size(), options.inlier_threshold_m), budget, 3,
-                   options.seed, 1, &second)) {
+                   options.seed, 1, &second) &&
+      !same_registration_basin(second.a_from_b, result.target_from_source)) {
     std::vector<int> second_inliers;
     for (int k : second.inliers) second_inliers.push_back(rest_index[std::size_t(k)]);
     const std::size_t matched_before = result.matched_source.size();
@@ -189,6 +192,11 @@ FeatureAlignment align_panorama_features(const PanoramaFeatures& from, const Pan
     }
   }
   return result;
+}
+
+bool same_registration_basin(const Rigid3d& a, const Rigid3d& b) {
+  const Rigid3d between = a.inverse() * b;
+  return rad2deg(rotation_angle(between.linear())) <= 2.0 && between.translation().norm() <= 0.1;
 }
 
 int count_consistent_matches(const FeatureAlignment& features, const Rigid3d& target_from_source, double threshold_m) {

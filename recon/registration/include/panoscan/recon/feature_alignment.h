@@ -64,6 +64,11 @@ struct FeatureAlignment {
   std::vector<Eigen::Vector3d> matched_source, matched_target;
 };
 
+// Two poses of one pair are one hypothesis (one basin of GICP) when they differ by at most 2 degrees
+// and 10 cm, the loop-closure tolerances of placement.h: the runner-up must be farther from the best
+// pose to be a runner-up, and the ambiguity check (stage2.h) calls two refined poses distinct beyond.
+bool same_registration_basin(const Rigid3d& a, const Rigid3d& b);
+
 // How many of the feature matches a pose explains within `threshold_m`.
 int count_consistent_matches(const FeatureAlignment& features, const Rigid3d& target_from_source, double threshold_m);
 
