@@ -658,11 +658,44 @@ TEST_F(TrackingTest, SelfCheckPassesACorrectTrajectoryAndCatchesCorruptedOnes) {
   std::vector<std::vector<int>> sparse = observations;
   for (auto& counts : sparse)
     for (std::size_t f = counts.size() / 4; f < 3 * counts.size() / 4; ++f) counts[f] = 0;
+  // The paper's graph has no depth-odometry pairs: nothing holds the stretch.
   const TrackingVerdict gap = verify_tracking(good, *scan_, *frontend_, sparse, {}, options);
   EXPECT_FALSE(gap.reliable);
   EXPECT_EQ(gap.first_failure().rfind("frames:", 0), 0u) << gap.first_failure();
+  // With the depth odometry, its pairs still measure the turn there (a plain wall does): they carry
+  // the stretch.
+  TrackingOptions depth_options = options;
+  depth_options.depth_odometry = true;
+  depth_options.verify.max_depth_yaw_std_deg = 0.1;
+  const TrackingResult with_depth = track_with_frontend(*scan_, *frontend_, depth_options);
+  const TrackingVerdict held_by_depth = verify_tracking(with_depth, *scan_, *frontend_, sparse, {}, depth_options);
+  EXPECT_TRUE(held_by_depth.reliable) << held_by_depth.first_failure();
+  int depth_supported = 0, frames = 0;
+  for (const auto& camera : held_by_depth.frames)
+    for (const FrameSupport& f : camera) {
+      depth_supported += f.depth_supported;
+      ++frames;
+    }
+  std::printf("frames supported by a depth pair's turn (std <= %.2f deg): %d of %d\n",
+              depth_options.verify.max_depth_yaw_std_deg, depth_supported, frames);
+  EXPECT_GT(depth_supported, frames / 2);
+  // Without those pairs' turn (none measured, or the option at 0) the stretch is unsupported again.
+  TrackingResult turn_unmeasured = with_depth;
+  for (auto& pairs : turn_unmeasured.depth_yaw_std_deg)
+    std::fill(pairs.begin(), pairs.end(), std::numeric_limits<double>::infinity());
+  EXPECT_EQ(verify_tracking(turn_unmeasured, *scan_, *frontend_, sparse, {}, depth_options)
+                .first_failure()
+                .rfind("frames:", 0),
+            0u);
+  TrackingOptions landmarks_only = depth_options;
+  landmarks_only.verify.max_depth_yaw_std_deg = 0;
+  EXPECT_EQ(
+      verify_tracking(with_depth, *scan_, *frontend_, sparse, {}, landmarks_only).first_failure().rfind("frames:", 0),
+      0u);
   // A Refusal (not any Error): what `tables --record-refusals` records as a run's outcome.
-  EXPECT_THROW(require_reliable_tracking(TrackingResult{good.trajectory, {}, {}, {}, gap}, options, "scan"), Refusal);
+  TrackingResult refused = good;
+  refused.verdict = gap;
+  EXPECT_THROW(require_reliable_tracking(refused, options, "scan"), Refusal);
 }
 
 TEST_F(TrackingTest, BadInputGivesClearErrors) {

@@ -75,6 +75,8 @@ void TrackingVerifyOptions::check(const std::string& origin) const {
   require(max_extrinsics_change_m > 0, "track.verify.max_extrinsics_change_m", "must be > 0");
   require(max_axis_tilt_deg > 0 && max_axis_tilt_deg <= 180, "track.verify.max_axis_tilt_deg", "must be in (0, 180]");
   require(max_unsupported_s > 0, "track.verify.max_unsupported_s", "must be > 0");
+  require(max_depth_yaw_std_deg >= 0 && std::isfinite(max_depth_yaw_std_deg), "track.verify.max_depth_yaw_std_deg",
+          "must be >= 0 (0: depth odometry never supports a frame)");
 }
 
 const char* to_string(TrackingMode mode) {
@@ -200,6 +202,8 @@ TrackingOptions tracking_options_from_config(Config& config) {
       config.get_double("track.verify.max_extrinsics_change_m", v.max_extrinsics_change_m, 1e-6, 10.0);
   v.max_axis_tilt_deg = config.get_double("track.verify.max_axis_tilt_deg", v.max_axis_tilt_deg, 1e-3, 180.0);
   v.max_unsupported_s = config.get_double("track.verify.max_unsupported_s", v.max_unsupported_s, 1e-3, 3600.0);
+  v.max_depth_yaw_std_deg =
+      config.get_double("track.verify.max_depth_yaw_std_deg", v.max_depth_yaw_std_deg, 0.0, 180.0);
   o.check(config.origin());
   return o;
 }
@@ -424,9 +428,13 @@ std::string tracking_stats_json(const TrackingResult& result, const RigInfo& rig
   nlohmann::json frames = nlohmann::json::object();
   for (std::size_t s = 0; s < v.frames.size() && s < rig.sensors.size(); ++s) {
     nlohmann::json observations = nlohmann::json::array(), gap = nlohmann::json::array(),
-                   gap_s = nlohmann::json::array(), confidence = nlohmann::json::array();
+                   gap_s = nlohmann::json::array(), confidence = nlohmann::json::array(),
+                   depth_yaw = nlohmann::json::array(), depth_supported = nlohmann::json::array();
     for (const FrameSupport& f : v.frames[s]) {
       observations.push_back(f.observations);
+      // null: no depth-odometry pair (JSON has no infinity).
+      depth_yaw.push_back(std::isfinite(f.depth_yaw_std_deg) ? nlohmann::json(f.depth_yaw_std_deg) : nlohmann::json());
+      depth_supported.push_back(f.depth_supported);
       gap.push_back(f.gap_deg);
       gap_s.push_back(f.gap_s);
       confidence.push_back(f.confidence);
@@ -434,6 +442,8 @@ std::string tracking_stats_json(const TrackingResult& result, const RigInfo& rig
     frames[rig.sensors[s].name] = {{"observations", std::move(observations)},
                                    {"gap_deg", std::move(gap)},
                                    {"gap_s", std::move(gap_s)},
+                                   {"depth_yaw_std_deg", std::move(depth_yaw)},
+                                   {"depth_supported", std::move(depth_supported)},
                                    {"confidence", std::move(confidence)}};
   }
   j["frame_support"] = std::move(frames);

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <thread>
 #include <unordered_map>
 
@@ -333,6 +334,27 @@ void add_velocity_factors(FactorGraph& graph, TrackingState& st, const TrackingO
   }
 }
 
+namespace {
+
+// The standard deviation (deg) of the turn about the rig's axis that a depth-odometry pair measures:
+// its information (omega, v) in frame b's coordinates, the axis (world_from_axis's z) seen from b,
+// and the marginal variance of the rotation about it, every other direction free. Directions the
+// pair does not observe carry no information; a ridge of 1e-9 of the trace keeps the inverse finite,
+// so a turn coupled to them comes out huge, as it should.
+double turn_std_deg(const Eigen::Matrix<double, 6, 6>& information, const Rigid3d& world_from_b,
+                    const Rigid3d& world_from_axis) {
+  const double trace = information.trace();
+  if (!(trace > 0) || !std::isfinite(trace)) return std::numeric_limits<double>::infinity();
+  const Eigen::Vector3d axis_in_b = world_from_b.linear().transpose() * world_from_axis.linear().col(2);
+  Eigen::Matrix<double, 6, 6> regularised = information;
+  regularised.diagonal().array() += 1e-9 * trace;
+  const Eigen::Matrix<double, 6, 6> covariance = regularised.ldlt().solve(Eigen::Matrix<double, 6, 6>::Identity());
+  const double variance = axis_in_b.dot(covariance.topLeftCorner<3, 3>() * axis_in_b);
+  return variance > 0 ? rad2deg(std::sqrt(variance)) : std::numeric_limits<double>::infinity();
+}
+
+}  // namespace
+
 void add_depth_odometry_factors(FactorGraph& graph, TrackingState& st, const ScanIndex& scan,
                                 const FrontendResult& frontend, const TrackingOptions& options) {
   if (!options.depth_odometry || options.mode == TrackingMode::kBaOnly) return;
@@ -372,6 +394,9 @@ void add_depth_odometry_factors(FactorGraph& graph, TrackingState& st, const Sca
   align.min_overlap = options.depth_odometry_min_overlap;
   align.information_scale = options.depth_odometry_information_scale;
   align.huber_delta = options.huber_delta;
+  st.depth_yaw_std_deg.assign(std::size_t(st.sensor_count), {});
+  for (int s = 0; s < st.sensor_count; ++s)
+    st.depth_yaw_std_deg[std::size_t(s)].assign(st.poses[s].size(), std::numeric_limits<double>::infinity());
   std::vector<depth_odometry::AlignResult> aligned(tasks.size());
   tbb::parallel_for(std::size_t(0), tasks.size(), [&](std::size_t k) {
     const auto [s, f] = tasks[k];
@@ -387,6 +412,8 @@ void add_depth_odometry_factors(FactorGraph& graph, TrackingState& st, const Sca
       continue;
     }
     const auto [s, f] = tasks[k];
+    st.depth_yaw_std_deg[std::size_t(s)][std::size_t(f)] =
+        turn_std_deg(aligned[k].information, st.poses[s][f + 1].pose(), st.axis.pose());
     const PoseBlock measured = PoseBlock::from(aligned[k].a_from_b);
     const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> root = depth_odometry::information_sqrt(aligned[k].information);
     graph.blocks[kDepthOdometry].push_back(graph.problem->AddResidualBlock(
@@ -608,6 +635,7 @@ TrackingResult extract_tracking_result(const TrackingState& st, const ScanIndex&
     return regauge ? Rigid3d(output_from_world * world_from_x.pose()) : world_from_x.pose();
   };
   TrackingResult result;
+  result.depth_yaw_std_deg = st.depth_yaw_std_deg;
   RigTrajectory& trajectory = result.trajectory;
   trajectory.source = std::string("tracked:") + to_string(options.mode);
   trajectory.world_from_cam.resize(st.sensor_count);

@@ -59,6 +59,8 @@ struct TrackingState {
   // cameras that are (>= extrinsics_release_min_landmarks): its null-space prior is released.
   std::vector<char> extrinsics_observed;
   std::vector<FrameNode> nodes;                     // frames of the active cameras in time order
+  // Per sensor, per frame f: the turn std of the depth-odometry pair (f, f + 1) (TrackingResult's field).
+  std::vector<std::vector<double>> depth_yaw_std_deg;
 };
 
 // The Ceres problem with the blocks of each kind of factor (for the cost of each term).

@@ -124,13 +124,29 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
   const double duration_s = ref_frames.size() > 1 ? ref_frames.back().timestamp - ref_frames.front().timestamp : 0.0;
   const double rate_deg_s = duration_s > 0 ? std::abs(turn_deg) / duration_s : 0.0;
 
-  // frames: instants where some camera in the graph has min_frame_observations observations; the
+  // frames: instants where some camera in the graph has min_frame_observations observations or (on
+  // the rotator) is in a depth-odometry pair that measures the turn to max_depth_yaw_std_deg; the
   // longest stretch between two of them: on the rotator as a turn (time x mean turn rate, so that a
-  // wrong azimuth cannot hide it), handheld in seconds.
+  // wrong azimuth cannot hide it), handheld in seconds. Depth pairs count on the rotator only: there
+  // the turn is the one direction the check is about; a handheld pose has six.
+  auto depth_yaw_std = [&](int s, std::size_t f) {
+    double best = std::numeric_limits<double>::infinity();
+    if (std::size_t(s) < result.depth_yaw_std_deg.size()) {
+      const std::vector<double>& pairs = result.depth_yaw_std_deg[std::size_t(s)];
+      if (f < pairs.size()) best = std::min(best, pairs[f]);                    // the pair (f, f + 1)
+      if (f >= 1 && f - 1 < pairs.size()) best = std::min(best, pairs[f - 1]);  // the pair (f - 1, f)
+    }
+    return best;
+  };
+  auto depth_supported = [&](int s, std::size_t f) {
+    return rotator && v.max_depth_yaw_std_deg > 0 && !observations[s].empty() &&
+           depth_yaw_std(s, f) <= v.max_depth_yaw_std_deg;
+  };
   std::vector<double> supported_times;
   for (int s = 0; s < sensors; ++s)
     for (std::size_t f = 0; f < observations[s].size(); ++f)
-      if (observations[s][f] >= v.min_frame_observations) supported_times.push_back(scan.frames[s][f].timestamp);
+      if (observations[s][f] >= v.min_frame_observations || depth_supported(s, f))
+        supported_times.push_back(scan.frames[s][f].timestamp);
   std::sort(supported_times.begin(), supported_times.end());
   double longest_gap_s = std::numeric_limits<double>::infinity();
   if (!supported_times.empty() && !ref_frames.empty()) {
@@ -145,6 +161,8 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
     for (std::size_t f = 0; f < scan.frames[s].size(); ++f) {
       FrameSupport& support = verdict.frames[s][f];
       support.observations = f < observations[s].size() ? observations[s][f] : 0;
+      support.depth_yaw_std_deg = depth_yaw_std(s, f);
+      support.depth_supported = f < observations[s].size() && depth_supported(s, f);
       const double t = scan.frames[s][f].timestamp;
       double nearest_s = std::numeric_limits<double>::infinity();
       const auto it = std::lower_bound(supported_times.begin(), supported_times.end(), t);
@@ -153,18 +171,24 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
       support.gap_s = std::isfinite(nearest_s) ? nearest_s : duration_s;
       support.gap_deg = rotator ? (std::isfinite(nearest_s) ? rate_deg_s * nearest_s : 360.0) : 0.0;
       const double gap = std::isfinite(nearest_s) ? gap_measure(nearest_s) : gap_limit;
-      support.confidence = std::min(1.0, double(support.observations) / v.min_frame_observations) *
+      support.confidence = std::max(std::min(1.0, double(support.observations) / v.min_frame_observations),
+                                    support.depth_supported ? 1.0 : 0.0) *
                            std::max(0.0, 1.0 - gap / gap_limit);
     }
   const double longest_gap = std::isfinite(longest_gap_s) ? gap_measure(longest_gap_s) : longest_gap_s;
   std::string frames_detail;
   if (!std::isfinite(longest_gap))
     frames_detail = fmt::format("no frame has {} or more observations", v.min_frame_observations);
-  else if (rotator)
+  else if (rotator && v.max_depth_yaw_std_deg <= 0)
     frames_detail = fmt::format(
         "the longest stretch without a frame of {} or more observations spans {:.1f} deg of the turn "
         "(at most {:.0f}): there only Eq. 2-3 carry the azimuth",
         v.min_frame_observations, longest_gap, v.max_unsupported_turn_deg);
+  else if (rotator)
+    frames_detail = fmt::format(
+        "the longest stretch without a frame of {} or more observations or a depth-odometry pair that measures "
+        "the turn to {:.2f} deg spans {:.1f} deg of the turn (at most {:.0f}): there only Eq. 2-3 carry the azimuth",
+        v.min_frame_observations, v.max_depth_yaw_std_deg, longest_gap, v.max_unsupported_turn_deg);
   else
     frames_detail = fmt::format(
         "the longest stretch without a frame of {} or more observations lasts {:.2f} s (at most {:.2f}): there "

@@ -41,6 +41,7 @@
 
 #include <array>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -85,6 +86,13 @@ struct TrackingVerifyOptions {
   // track.verify.max_unsupported_s: handheld recordings (no turn to measure a gap by): the longest
   // time no camera supports, over which the poses are extrapolated from the last motion.
   double max_unsupported_s = 1.0;
+  // track.verify.max_depth_yaw_std_deg (rotator): a frame also counts as supported when a
+  // depth-odometry pair it is in measures the turn about the rig's axis to this standard deviation
+  // (from the pair's information, TrackingResult::depth_yaw_std_deg): the depth of a plain wall
+  // carries the azimuth as landmarks do. 0 (the default): only landmarks support. 0.1 is the measured
+  // choice, and not the default because a stretch without landmarks is also where nothing checks the
+  // depth pairs' translation: recon/tracking/README.md, "The self-check".
+  double max_depth_yaw_std_deg = 0.0;
 
   void check(const std::string& origin) const;
 };
@@ -208,10 +216,13 @@ struct TrackingCheck {
 // Per frame of each camera: its support by the data.
 struct FrameSupport {
   int observations = 0;     // Eq. 1 observations (0 for cameras not in the graph)
+  // The best (smallest) turn std of the depth-odometry pairs the frame is in (deg; +inf: none).
+  double depth_yaw_std_deg = std::numeric_limits<double>::infinity();
+  bool depth_supported = false;  // depth_yaw_std_deg <= max_depth_yaw_std_deg (rotator)
   double gap_deg = 0.0;     // turn from this frame to the nearest instant some camera supports (rotator; else 0)
   double gap_s = 0.0;       // the same in seconds
-  // min(1, observations / min_frame_observations) * max(0, 1 - gap / max gap), the gap in degrees
-  // (rotator: max_unsupported_turn_deg) or seconds (handheld: max_unsupported_s)
+  // max(min(1, observations / min_frame_observations), 1 if depth_supported) * max(0, 1 - gap / max
+  // gap), the gap in degrees (rotator: max_unsupported_turn_deg) or seconds (handheld: max_unsupported_s)
   double confidence = 0.0;
 };
 
@@ -228,6 +239,10 @@ struct TrackingResult {
   RigTrajectory trajectory;                                // every frame of the scan, source "tracked:<mode>"
   std::vector<std::vector<double>> azimuth_rad;            // per sensor, per frame, in [0, 2 pi)
   std::vector<std::vector<double>> azimuth_unwrapped_rad;  // the same, unwrapped (continuous)
+  // Per sensor, per frame f: the standard deviation (deg) of the turn about the rig's axis that the
+  // depth-odometry pair of frames f and f + 1 measured, from its information with every other
+  // direction free; +inf where there is no pair (rejected, the last frame, depth odometry off).
+  std::vector<std::vector<double>> depth_yaw_std_deg;
   TrackingStats stats;
   TrackingVerdict verdict;
 };
@@ -235,12 +250,14 @@ struct TrackingResult {
 // Checks a solution against what a rotator scan must satisfy and what the front end measured
 // independently of the graph (paper §4.1 leaves this to the user; a testbed cannot):
 //  - frames: no stretch of more than max_unsupported_turn_deg where no camera has
-//    min_frame_observations observations (there Eq. 2-3 alone extrapolate the azimuth);
+//    min_frame_observations observations or a depth-odometry pair that measures the turn
+//    (max_depth_yaw_std_deg): there Eq. 2-3 alone extrapolate the azimuth;
 //  - turn: the reference camera turns one revolution (min/max_turn_deg);
 //  - monotone: its azimuth never steps back by more than max_backward_step_deg;
 //  - pairs, loop: the tracked relative poses of the front end's verified frame pairs (same camera;
-//    loop closure) agree with the pairs' RANSAC poses within the pair tolerances, for at least
-//    min_consistent_pair_share of the same-camera pairs and min_consistent_loop_share of the loop pairs;
+//    loop closure) keep min_pair_inlier_share of each pair's RANSAC inliers, for at least
+//    min_consistent_pair_share of the same-camera pairs (pooled and per camera) and
+//    min_consistent_loop_share of the loop pairs;
 //  - residuals: at most max_outlier_share of the observations are gross outliers;
 //  - extrinsics: each estimated T_c within max_extrinsics_change_* of the calibration (rig.json);
 //  - axis: the rotation axis within max_axis_tilt_deg of the reference camera's up;
