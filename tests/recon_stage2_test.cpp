@@ -59,21 +59,40 @@ Rigid3d pose_at(const Scene& scene, int position, double yaw) {
                     scene.positions[position].floor_point + Eigen::Vector3d(0, 0, 1.1));
 }
 
+// Two synthetic panoramas of one built-in room (positions by index, turned by their yaws, H rows,
+// each with its own noise seed) and the true target_from_source.
+struct PanoramaPair {
+  Panorama source, target;
+  Rigid3d truth;
+};
+PanoramaPair render_pair(const char* room, int target_position, double target_yaw, std::uint64_t target_seed,
+                         int source_position, double source_yaw, std::uint64_t source_seed, int height) {
+  const Scene scene = scenes::make_builtin_scene(room);
+  const Renderer renderer(scene);
+  const Rigid3d world_from_target = pose_at(scene, target_position, target_yaw);
+  const Rigid3d world_from_source = pose_at(scene, source_position, source_yaw);
+  return {synthetic_panorama(renderer, world_from_source, height, source_seed),
+          synthetic_panorama(renderer, world_from_target, height, target_seed),
+          world_from_target.inverse() * world_from_source};
+}
+
+// An estimate's rotation (deg) and translation (m) from the truth.
+double rotation_error_deg(const Rigid3d& estimate, const Rigid3d& truth) {
+  return rad2deg(rotation_angle(estimate.linear().transpose() * truth.linear()));
+}
+double translation_error_m(const Rigid3d& estimate, const Rigid3d& truth) {
+  return (estimate.translation() - truth.translation()).norm();
+}
+
 }  // namespace
 
 TEST(Stage2, RegistersTwoOfficePanoramasAndRejectsAWrongGivenPose) {
-  const Scene scene = scenes::make_builtin_scene("office");
-  const Renderer renderer(scene);
-  const Rigid3d world_from_target = pose_at(scene, 0, 0.0), world_from_source = pose_at(scene, 2, deg2rad(-25));
-  const Panorama target = synthetic_panorama(renderer, world_from_target, 320, 1);
-  const Panorama source = synthetic_panorama(renderer, world_from_source, 320, 2);
-  const Rigid3d truth = world_from_target.inverse() * world_from_source;
+  const auto [source, target, truth] = render_pair("office", 0, 0.0, 1, 2, deg2rad(-25), 2, 320);
   PairRegistrationOptions options;
   options.cloud.pixel_stride = 2;
   const PairRegistration result = register_panorama_pair(source, target, options, nullptr, "SO-3", "SO-1");
-  const double rotation_error =
-      rad2deg(rotation_angle(result.target_from_source.linear().transpose() * truth.linear()));
-  const double translation_error = (result.target_from_source.translation() - truth.translation()).norm();
+  const double rotation_error = rotation_error_deg(result.target_from_source, truth);
+  const double translation_error = translation_error_m(result.target_from_source, truth);
   std::printf("SO-3 -> SO-1: %d ORB inliers, %d consistent; error %.3f deg, %.1f mm after %d GICP iterations\n",
               result.guess.inliers, result.consistent_matches, rotation_error, translation_error * 1e3,
               result.icp.iterations);
@@ -105,17 +124,12 @@ TEST(Stage2, APlainRoomsFewRatioTestMatchesAreCompletedByTheGuidedSearch) {
   // features.min_inliers on their own. The search guided by RANSAC's pose finds the features that
   // agree within 5 cm, and the guess is taken. With the guided search off (guided_max_hamming 0) the
   // guess fails: that is what the search is for.
-  const Scene scene = scenes::make_builtin_scene("office");
-  const Renderer renderer(scene);
-  const Rigid3d world_from_target = pose_at(scene, 0, 0.0), world_from_source = pose_at(scene, 3, -0.9);
-  const Panorama target = synthetic_panorama(renderer, world_from_target, 256, 50);
-  const Panorama source = synthetic_panorama(renderer, world_from_source, 256, 63);
-  const Rigid3d truth = world_from_target.inverse() * world_from_source;
+  const auto [source, target, truth] = render_pair("office", 0, 0.0, 50, 3, -0.9, 63, 256);
   PairRegistrationOptions options;
   options.cloud.pixel_stride = 1;
   const PairRegistration r = register_panorama_pair(source, target, options, nullptr, "SO-4", "SO-1");
-  const double rotation_error = rad2deg(rotation_angle(r.target_from_source.linear().transpose() * truth.linear()));
-  const double translation_error = (r.target_from_source.translation() - truth.translation()).norm();
+  const double rotation_error = rotation_error_deg(r.target_from_source, truth);
+  const double translation_error = translation_error_m(r.target_from_source, truth);
   std::printf(
       "SO-4 -> SO-1 at H = 256: %d of %d matches consistent, %d guided; %d consistent at the end; error %.3f "
       "deg, %.1f mm\n",
@@ -143,21 +157,16 @@ TEST(Stage2, APointSymmetricPairIsRefusedAsAmbiguousAndRegistersFromAGivenPose) 
   // occluded). The runner-up hypothesis (the true pose, from the matches the majority leaves)
   // converges too, within registration.ambiguity_margin of that overlap: the pair is ambiguous.
   // Without the runner-up check the mirrored pose is returned (checked: 179.8 deg, 2.55 m off).
-  const Scene scene = scenes::make_builtin_scene("office");
-  const Renderer renderer(scene);
-  const Rigid3d world_from_target = pose_at(scene, 0, 0.0), world_from_source = pose_at(scene, 1, deg2rad(20));
-  const Panorama target = synthetic_panorama(renderer, world_from_target, 512, 3);
-  const Panorama source = synthetic_panorama(renderer, world_from_source, 512, 4);
-  const Rigid3d truth = world_from_target.inverse() * world_from_source;
+  const auto [source, target, truth] = render_pair("office", 0, 0.0, 3, 1, deg2rad(20), 4, 512);
   PairRegistrationOptions options;
   options.cloud.pixel_stride = 2;
   try {
     const PairRegistration r = register_panorama_pair(source, target, options, nullptr, "SO-2", "SO-1");
-    ADD_FAILURE() << "returned a pose " << rad2deg(rotation_angle(r.target_from_source.linear().transpose() * truth.linear()))
-                  << " deg, " << (r.target_from_source.translation() - truth.translation()).norm()
-                  << " m from the truth instead of refusing (ORB " << r.guess.inliers << " of " << r.guess.matches
-                  << ", runner-up " << r.guess.alternative_inliers << ", refined " << r.alternative_refined
-                  << ", overlap " << r.overlap << " vs " << r.alternative_overlap << ")";
+    ADD_FAILURE() << "returned a pose " << rotation_error_deg(r.target_from_source, truth) << " deg, "
+                  << translation_error_m(r.target_from_source, truth) << " m from the truth instead of refusing (ORB "
+                  << r.guess.inliers << " of " << r.guess.matches << ", runner-up " << r.guess.alternative_inliers
+                  << ", refined " << r.alternative_refined << ", overlap " << r.overlap << " vs "
+                  << r.alternative_overlap << ")";
   } catch (const Error& e) {
     std::printf("SO-2 -> SO-1: %s\n", e.what());
     EXPECT_NE(std::string(e.what()).find("ambiguous"), std::string::npos) << e.what();
@@ -170,8 +179,8 @@ TEST(Stage2, APointSymmetricPairIsRefusedAsAmbiguousAndRegistersFromAGivenPose) 
       truth;
   const PairRegistration given = register_panorama_pair(source, target, options, &near_truth, "SO-2", "SO-1");
   std::printf("SO-2 -> SO-1 from a given pose: overlap %.3f, %d consistent matches\n", given.overlap, given.consistent_matches);
-  EXPECT_LT(rad2deg(rotation_angle(given.target_from_source.linear().transpose() * truth.linear())), 0.1);
-  EXPECT_LT((given.target_from_source.translation() - truth.translation()).norm(), 0.01);
+  EXPECT_LT(rotation_error_deg(given.target_from_source, truth), 0.1);
+  EXPECT_LT(translation_error_m(given.target_from_source, truth), 0.01);
 }
 
 TEST(Stage2, AnAsymmetricRoomsBetterRunnerUpIsTakenNotCalledAmbiguous) {
@@ -180,19 +189,14 @@ TEST(Stage2, AnAsymmetricRoomsBetterRunnerUpIsTakenNotCalledAmbiguous) {
   // the runner-up, the truth, by 0.97. So the runner-up is taken, and the pair is not ambiguous. On
   // simulated 320x240 scans (no turn) the order is the other way: the truth first (0.96), the
   // runner-up 1.8 m off (0.62). Without the runner-up check this test fails (the 0.73 pose).
-  const Scene scene = scenes::make_builtin_scene("living_room");
-  const Renderer renderer(scene);
-  const Rigid3d world_from_target = pose_at(scene, 0, 0.0), world_from_source = pose_at(scene, 1, deg2rad(90));
-  const Panorama target = synthetic_panorama(renderer, world_from_target, 512, 5);
-  const Panorama source = synthetic_panorama(renderer, world_from_source, 512, 6);
-  const Rigid3d truth = world_from_target.inverse() * world_from_source;
+  const auto [source, target, truth] = render_pair("living_room", 0, 0.0, 5, 1, deg2rad(90), 6, 512);
   PairRegistrationOptions options;
   options.cloud.pixel_stride = 2;
   const PairRegistration r = register_panorama_pair(source, target, options, nullptr, "SL-2", "SL-1");
   std::printf("SL-2 -> SL-1: %d ORB inliers, overlap %.3f; runner-up %d inliers%s, overlap %.3f\n", r.guess.inliers,
               r.overlap, r.guess.alternative_inliers, r.alternative_refined ? " (refined)" : "", r.alternative_overlap);
-  EXPECT_LT(rad2deg(rotation_angle(r.target_from_source.linear().transpose() * truth.linear())), 0.1);
-  EXPECT_LT((r.target_from_source.translation() - truth.translation()).norm(), 0.01);
+  EXPECT_LT(rotation_error_deg(r.target_from_source, truth), 0.1);
+  EXPECT_LT(translation_error_m(r.target_from_source, truth), 0.01);
 }
 
 TEST(Stage2, IntegrationWithMapBeatsAlignOnlyAgainstTheMesh) {
