@@ -338,6 +338,22 @@ TEST(Stage2, AScanWhosePairWithTheScanBeforeIsRefusedIsPlacedByItsOtherPairs) {
   }
 }
 
+TEST(Stage2, UnlinkedPanoramasAreTheOnesNoChainReachesFromTheFirst) {
+  // 0 - 1 - 3 linked (in either direction), 2 and 4 not: what recon scene's and place_panoramas'
+  // errors name.
+  const std::vector<PoseGraphEdge> edges = {{1, 0, Rigid3d::Identity()}, {1, 3, Rigid3d::Identity()}};
+  EXPECT_EQ(unlinked_panoramas(5, edges), (std::vector<int>{2, 4}));
+  EXPECT_TRUE(unlinked_panoramas(2, {{0, 1, Rigid3d::Identity()}}).empty());
+  EXPECT_EQ(unlinked_panoramas(3, {}), (std::vector<int>{1, 2}));
+  try {
+    place_panoramas({"A", "B", "C", "D", "E"}, Rigid3d::Identity(), edges, PlacementOptions{});
+    ADD_FAILURE() << "placed panoramas no registration links";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("C"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("no chain of registrations links it to A"), std::string::npos) << e.what();
+  }
+}
+
 // ---- The commands `panoscan recon register` and `panoscan recon integrate` on panorama folders.
 
 namespace {

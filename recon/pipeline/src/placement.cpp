@@ -13,6 +13,23 @@
 
 namespace panoscan {
 
+std::vector<int> unlinked_panoramas(int count, const std::vector<PoseGraphEdge>& edges) {
+  std::vector<char> linked(std::size_t(std::max(count, 0)), 0);
+  if (count > 0) linked[0] = 1;
+  for (bool grew = true; grew;) {
+    grew = false;
+    for (const PoseGraphEdge& e : edges)
+      if (linked[std::size_t(e.from)] != linked[std::size_t(e.to)]) {
+        linked[std::size_t(e.from)] = linked[std::size_t(e.to)] = 1;
+        grew = true;
+      }
+  }
+  std::vector<int> unlinked;
+  for (int k = 0; k < count; ++k)
+    if (!linked[std::size_t(k)]) unlinked.push_back(k);
+  return unlinked;
+}
+
 Placement place_panoramas(const std::vector<std::string>& names, const Rigid3d& world_from_first,
                           const std::vector<PoseGraphEdge>& edges, const PlacementOptions& options) {
   const int n = int(names.size());
@@ -21,6 +38,9 @@ Placement place_panoramas(const std::vector<std::string>& names, const Rigid3d& 
     if (e.from < 0 || e.from >= n || e.to < 0 || e.to >= n || e.from == e.to)
       throw make_error("", "placement",
                        fmt::format("registration {} -> {} does not link two of the {} panoramas", e.from, e.to, n));
+  if (const std::vector<int> unlinked = unlinked_panoramas(n, edges); !unlinked.empty())
+    throw make_error(names[std::size_t(unlinked.front())], "registrations",
+                     "no chain of registrations links it to " + names[0]);
   Placement result;
   result.edge_kept.assign(edges.size(), 1);
   result.edge_in_chain.assign(edges.size(), 0);
@@ -53,8 +73,7 @@ Placement place_panoramas(const std::vector<std::string>& names, const Rigid3d& 
       grew = true;
     }
   }
-  for (int k = 0; k < n; ++k)
-    if (!placed[k]) throw make_error(names[k], "registrations", "no chain of registrations links it to " + names[0]);
+  // Every panorama is placed: unlinked_panoramas found none above, and the chain follows the same links.
 
   // 2. Registrations outside the chain that contradict it.
   std::vector<PoseGraphEdge> kept;

@@ -42,34 +42,24 @@ void register_scene_panoramas(const std::vector<Panorama>& panoramas, const std:
         log_warn(fmt::format("skipped: {}", e.what()));
       }
     }
+  std::vector<PoseGraphEdge> graph_edges;
+  for (const PairEdge& e : result.edges) graph_edges.push_back({e.source, e.target, e.registration.target_from_source});
   // A scan the registrations that succeeded do not link to the first cannot be placed: say why its
-  // own pairs failed (its consecutive pair's reason first), not only that it is unlinked.
-  {
-    std::vector<int> group(n);
-    for (int k = 0; k < n; ++k) group[k] = k;
-    auto root = [&](int k) {
-      while (group[k] != k) k = group[k] = group[group[k]];
-      return k;
-    };
-    for (const PairEdge& e : result.edges) group[root(e.source)] = root(e.target);
-    for (int k = 1; k < n; ++k) {
-      if (root(k) == root(0)) continue;
-      // Its pair with the scan before it first, then its other failed pairs in order.
-      std::string reasons;
-      for (int pass = 0; pass < 2; ++pass)
-        for (const PairFailure& f : failures) {
-          const bool with_previous = f.source == k && f.target == k - 1;
-          if ((f.source == k || f.target == k) && with_previous == (pass == 0))
-            reasons += (reasons.empty() ? "" : "; ") + f.reason;
-        }
-      throw make_error(names[k], "registrations",
-                       "no registration that succeeded links it to " + names[0] + " (" + reasons + ")");
-    }
+  // own pairs failed (its pair with the scan before it first), not only that it is unlinked.
+  if (const std::vector<int> unlinked = unlinked_panoramas(n, graph_edges); !unlinked.empty()) {
+    const int k = unlinked.front();
+    std::string reasons;
+    for (int pass = 0; pass < 2; ++pass)
+      for (const PairFailure& f : failures) {
+        const bool with_previous = f.source == k && f.target == k - 1;
+        if ((f.source == k || f.target == k) && with_previous == (pass == 0))
+          reasons += (reasons.empty() ? "" : "; ") + f.reason;
+      }
+    throw make_error(names[k], "registrations",
+                     "no registration that succeeded links it to " + names[0] + " (" + reasons + ")");
   }
 
   // Poses: the one placement rule of recon scene and recon integrate (placement.h).
-  std::vector<PoseGraphEdge> graph_edges;
-  for (const PairEdge& e : result.edges) graph_edges.push_back({e.source, e.target, e.registration.target_from_source});
   const auto placement_start = steady_now();
   result.placement = place_panoramas(names, panoramas[0].world_from_pano, graph_edges, options.placement);
   result.seconds_pose_graph = seconds_since(placement_start);

@@ -37,6 +37,10 @@ struct Placement {
 };
 
 // `names` names the panoramas (one per panorama, for messages); an edge measures
+// The panoramas (of `count`, in index order) that no chain of the edges links to panorama 0: those
+// place_panoramas cannot place. Edge indices must lie in [0, count).
+std::vector<int> unlinked_panoramas(int count, const std::vector<PoseGraphEdge>& edges);
+
 // to_from_from between panorama indices. Throws Error naming a panorama that no chain of
 // registrations links to names[0], or an edge with an index out of range.
 Placement place_panoramas(const std::vector<std::string>& names, const Rigid3d& world_from_first,
