@@ -567,7 +567,8 @@ TEST_F(TrackingTest, SelfCheckPassesACorrectTrajectoryAndCatchesCorruptedOnes) {
   const TrackingResult good = track_with_frontend(*scan_, *frontend_, test_tracking_options());
   ASSERT_TRUE(good.verdict.checked);
   EXPECT_TRUE(good.verdict.reliable) << good.verdict.first_failure();
-  for (const char* name : {"finite", "frames", "turn", "monotone", "pairs", "loop", "residuals", "extrinsics", "axis"})
+  for (const char* name :
+       {"finite", "frames", "turn", "monotone", "model", "pairs", "loop", "residuals", "extrinsics", "axis"})
     EXPECT_TRUE(std::any_of(good.verdict.checks.begin(), good.verdict.checks.end(), [&](const TrackingCheck& c) {
       return c.name == name;
     })) << name;
@@ -647,6 +648,27 @@ TEST_F(TrackingTest, SelfCheckPassesACorrectTrajectoryAndCatchesCorruptedOnes) {
   const std::vector<std::string> swapped_failures = failed(swapped);
   EXPECT_TRUE(contains(swapped_failures, "monotone"));
 
+  // One frame 4 cm off the rotator model (as where a depth pair slid along a plain wall and the solve
+  // followed it): the model check. The graph's own departures are all within it.
+  ASSERT_EQ(good.model_departure_mm.size(), scan_->frames.size());
+  double worst_sigma = 0.0;
+  for (std::size_t s = 0; s < good.model_departure_mm.size(); ++s) {
+    ASSERT_EQ(good.model_departure_mm[s].size(), scan_->frames[s].size());
+    for (std::size_t f = 0; f < good.model_departure_mm[s].size(); ++f)
+      worst_sigma =
+          std::max(worst_sigma, std::hypot(good.model_departure_mm[s][f] / 5.0, good.model_departure_deg[s][f] / 0.5));
+  }
+  EXPECT_GT(worst_sigma, 0.0);
+  EXPECT_LT(worst_sigma, options.verify.max_model_departure_sigma);
+  TrackingResult departed = good;
+  departed.model_departure_mm[ref][7] = 40.0;
+  const std::vector<std::string> departed_failures = failed(departed);
+  EXPECT_EQ(departed_failures, std::vector<std::string>{"model"});
+  const TrackingVerdict departed_verdict = verify_tracking(departed, *scan_, *frontend_, observations, {}, options);
+  EXPECT_NE(departed_verdict.first_failure().find(scan_->rig.sensors[ref].name + " frame 7 departs 40.0 mm"),
+            std::string::npos)
+      << departed_verdict.first_failure();
+
   // A wrong calibration: the estimated extrinsics 10 deg away from rig.json's.
   TrackingResult recalibrated = good;
   const int outer = ref == 0 ? 1 : 0;
@@ -679,6 +701,13 @@ TEST_F(TrackingTest, SelfCheckPassesACorrectTrajectoryAndCatchesCorruptedOnes) {
   std::printf("frames supported by a depth pair's turn (std <= %.2f deg): %d of %d\n",
               depth_options.verify.max_depth_yaw_std_deg, depth_supported, frames);
   EXPECT_GT(depth_supported, frames / 2);
+  // ... but not pairs the solution disagrees with (beyond the factor's Huber threshold): the solve
+  // took them as outliers, and they do not hold what it made of the frame.
+  TrackingResult disagreeing = with_depth;
+  for (auto& pairs : disagreeing.depth_pair_residual) std::fill(pairs.begin(), pairs.end(), 10.0 * kDepthOdometryHuber);
+  EXPECT_EQ(
+      verify_tracking(disagreeing, *scan_, *frontend_, sparse, {}, depth_options).first_failure().rfind("frames:", 0),
+      0u);
   // Without those pairs' turn (none measured, or the option at 0) the stretch is unsupported again.
   TrackingResult turn_unmeasured = with_depth;
   for (auto& pairs : turn_unmeasured.depth_yaw_std_deg)

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -239,6 +240,7 @@ Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, c
     const double gate = std::max(gate_before_floor, 4.0 * sigma + footprint);
     const Eigen::Vector3d diff = moved - q;
     if (diff.squaredNorm() > gate * gate) continue;
+
     const double inverse_sigma = 1.0 / sigma;
     const double r = normal.dot(diff) * inverse_sigma;
     const double weight = std::abs(r) <= o.huber_delta ? 1.0 : o.huber_delta / std::abs(r);
@@ -299,7 +301,7 @@ Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, c
 }  // namespace
 
 AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigid3d& a_from_b_guess,
-                              const AlignOptions& o) {
+                              const AlignOptions& o, const TurnAxis* turn) {
   AlignResult result;
   if (a.empty() || b.empty()) {
     result.reason = "no depth grid";
@@ -311,56 +313,154 @@ AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigi
   JacobianRows work;
 
   Rigid3d a_from_b = a_from_b_guess;
-  // The directions the samples are resolved along and which of them they do not observe, from the
-  // guess with the first (widest) gate: a direction most of whose information comes from samples
-  // not facing it is unobserved.
+  // The directions the samples are resolved along and which of them they do not observe: a
+  // direction most of whose information comes from samples not facing it is unobserved. Decided at
+  // the guess with the first (widest) gate, again where the turn (below) has moved b, and at the
+  // solution for the information.
   Directions directions;
   const Directions* resolved = nullptr;
-  if (o.min_normal_alignment > 0.0) {
-    const Linearisation first = linearise(target, a.intrinsics, source, a_from_b, 0, o, work);
+  auto resolve_directions = [&](int gate_level) {
+    if (!(o.min_normal_alignment > 0.0)) return;
+    const Linearisation first = linearise(target, a.intrinsics, source, a_from_b, gate_level, o, work);
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rotation(first.hessian.topLeftCorner<3, 3>());
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> translation(first.hessian.bottomRightCorner<3, 3>());
     directions.rotation = rotation.eigenvectors();
     directions.translation = translation.eigenvectors();
     FacingShare share;
-    linearise(target, a.intrinsics, source, a_from_b, 0, o, work, &directions, &share);
+    linearise(target, a.intrinsics, source, a_from_b, gate_level, o, work, &directions, &share);
     for (std::size_t i = 0; i < 6; ++i)
       directions.unobserved[i] = !(share.facing[i] >= o.min_facing_share * share.all[i]);
     resolved = &directions;
+  };
+  resolve_directions(0);
+
+  // With `turn` (the rotator), two phases come first. A guess several degrees off in the turn (a
+  // rotator step faster than the ones around it) puts b's samples decimetres from their partners;
+  // a 6-DoF step from there traded the missing turn for a slide, the gate shrank on schedule, and
+  // the estimate settled in the wrong basin (rotation right, 17-160 mm off in translation on a
+  // generated office; recon/tracking/README.md, "Depth odometry").
+  //  1. the turn about the axis alone: delta = theta (d, p x d) turns b's samples by theta about the
+  //     line through p along d (first order);
+  //  2. turns about p in any direction, delta = (omega, p x omega), which takes up the wobble's tilt;
+  //  3. all six degrees of freedom, with the gate shrinking to its floor.
+  // A phase ends when a step moves a typical sample by less than a tenth of the first gate, or after
+  // max_turn_iterations; a turn that leaves the guess by more than max_step_deg has lost its way,
+  // and phase 3 starts from the guess.
+  enum class Phase { kTurnAboutAxis, kTurnAboutPivot, kFree };
+  Phase phase = turn != nullptr && o.max_turn_iterations > 0 ? Phase::kTurnAboutAxis : Phase::kFree;
+  Vector6d axis_turn = Vector6d::Zero();
+  Eigen::Matrix<double, 6, 3> pivot_turns = Eigen::Matrix<double, 6, 3>::Zero();
+  if (turn) {
+    axis_turn.head<3>() = turn->direction.normalized();
+    axis_turn.tail<3>() = turn->point.cross(axis_turn.head<3>());
+    const Eigen::Vector3d& p = turn->point;
+    pivot_turns.topRows<3>().setIdentity();
+    pivot_turns.bottomRows<3>() << 0.0, -p.z(), p.y(), p.z(), 0.0, -p.x(), -p.y(), p.x(), 0.0;
   }
-  int iteration = 0;
-  for (; iteration < o.max_iterations; ++iteration) {
-    const Linearisation lin = linearise(target, a.intrinsics, source, a_from_b, iteration, o, work, resolved);
+  // The samples' mean distance from b's centre: how far a turn moves a typical sample.
+  double mean_arm = 0.0;
+  for (const double arm : source.arm) mean_arm += arm;
+  if (!source.arm.empty()) mean_arm /= double(source.arm.size());
+  auto next_phase = [&] {
+    phase = phase == Phase::kTurnAboutAxis ? Phase::kTurnAboutPivot : Phase::kFree;
+    if (phase == Phase::kFree) resolve_directions(0);  // b's samples may meet other surfaces of a now
+  };
+
+  int iteration = 0, turn_iterations = 0, phase_iterations = 0, gate_level = 0;
+  bool converged = false;
+  std::vector<Rigid3d> history;  // the estimate after each step of phase 3
+  while (iteration - turn_iterations < o.max_iterations) {
+    const Linearisation lin = linearise(target, a.intrinsics, source, a_from_b, gate_level, o, work, resolved);
     if (lin.inliers < 6) break;
-    // Gauss-Newton with a whisper of damping: a plain wall leaves directions without information.
-    Matrix6d damped = lin.hessian;
-    damped.diagonal().array() += 1e-9 * lin.hessian.trace() / 6.0 + 1e-12;
-    const Vector6d delta = -damped.ldlt().solve(lin.gradient);
+    Vector6d delta;
+    if (phase == Phase::kTurnAboutAxis) {
+      // One-dimensional Gauss-Newton; a turn the samples do not observe (a floor alone) is skipped.
+      const double curvature = axis_turn.dot(lin.hessian * axis_turn);
+      if (!(curvature > 1e-9 * lin.hessian.trace())) {
+        phase_iterations = 0;
+        next_phase();
+        continue;
+      }
+      delta = -(axis_turn.dot(lin.gradient) / curvature) * axis_turn;
+    } else if (phase == Phase::kTurnAboutPivot) {
+      // Gauss-Newton over the turns the samples observe: the pseudo-inverse drops a turn with a
+      // vanishing share of the information (two vertical walls say little of one tilt), where a
+      // damped solve stepped by thousands of degrees.
+      const Eigen::Matrix3d reduced = pivot_turns.transpose() * lin.hessian * pivot_turns;
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(0.5 * (reduced + reduced.transpose()));
+      const Eigen::Vector3d projected = eigen.eigenvectors().transpose() * (pivot_turns.transpose() * lin.gradient);
+      Eigen::Vector3d omega = Eigen::Vector3d::Zero();
+      for (int k = 0; k < 3; ++k)
+        if (eigen.eigenvalues()(k) > 1e-6 * eigen.eigenvalues()(2))
+          omega -= eigen.eigenvectors().col(k) * (projected(k) / eigen.eigenvalues()(k));
+      delta = pivot_turns * omega;
+    } else {
+      // Gauss-Newton with a whisper of damping: a plain wall leaves directions without information.
+      Matrix6d damped = lin.hessian;
+      damped.diagonal().array() += 1e-9 * lin.hessian.trace() / 6.0 + 1e-12;
+      delta = -damped.ldlt().solve(lin.gradient);
+    }
     if (!delta.allFinite()) break;
     Rigid3d step = Rigid3d::Identity();
     step.linear() = so3_exp(delta.head<3>());
     step.translation() = delta.tail<3>();
     a_from_b = a_from_b * step;
+    ++iteration;
+    if (phase != Phase::kFree) {
+      ++turn_iterations;
+      ++phase_iterations;
+      if (rad2deg(rotation_angle((a_from_b_guess.inverse() * a_from_b).linear())) > o.max_step_deg) {
+        a_from_b = a_from_b_guess;
+        phase = Phase::kTurnAboutPivot;  // next_phase() moves on to phase 3
+      } else if (phase_iterations < o.max_turn_iterations &&
+                 delta.head<3>().norm() * mean_arm > 0.1 * o.max_distance_m) {
+        continue;
+      }
+      phase_iterations = 0;
+      next_phase();
+      continue;
+    }
+    history.push_back(a_from_b);
     // Converged once the gate has shrunk to its floor (below 1 mm the per-sample floor of 4 sigma +
     // one block's footprint rules) and the step is a small fraction of the estimate's own standard
     // deviation: its length in the information metric, sqrt(delta^T H delta), is in those units.
-    const bool gate_at_floor = coarse_gate(o, iteration) <= 1e-3;
+    const bool gate_at_floor = coarse_gate(o, gate_level) <= 1e-3;
     if (gate_at_floor && delta.dot(lin.hessian * delta) < o.converged_step_sigma * o.converged_step_sigma) {
-      ++iteration;
+      converged = true;
       break;
     }
+    ++gate_level;
   }
   result.iterations = iteration;
-  // The information at the solution, with the final (tightest) gate.
+  // The information at the solution, with the final (tightest) gate, over the directions the samples
+  // observe there. Decided at the guess only, a guess several degrees off let b's samples of a plain
+  // wall meet a table in a, and the information claimed 1 mm along the wall's slides.
+  resolve_directions(o.max_iterations + 64);
   const Linearisation final_lin =
       linearise(target, a.intrinsics, source, a_from_b, o.max_iterations + 64, o, work, resolved);
   result.inliers = final_lin.inliers;
   result.a_from_b = a_from_b;
   result.information = o.information_scale * final_lin.hessian;
   result.whitened_rms = final_lin.inliers > 0 ? std::sqrt(final_lin.whitened_sq / final_lin.inliers) : 0.0;
+  result.converged = converged;
+  // Projective association re-pairs samples as the pose moves, and some pairs circle in a limit
+  // cycle above converged_step_sigma instead of settling: judged by how far the last five steps took
+  // the estimate in all (in its own standard deviations), a cycle goes nowhere, a drift does.
+  constexpr std::size_t kSettleSteps = 5;
+  if (!converged && history.size() > kSettleSteps) {
+    const Rigid3d lately = history[history.size() - 1 - kSettleSteps].inverse() * a_from_b;
+    Vector6d moved;
+    moved.head<3>() = so3_log(lately.linear());
+    moved.tail<3>() = lately.translation();
+    result.unsettled_sigma = std::sqrt(std::max(0.0, moved.dot(final_lin.hessian * moved)));
+  } else if (!converged) {
+    result.unsettled_sigma = std::numeric_limits<double>::infinity();
+  }
 
   const Rigid3d moved = a_from_b_guess.inverse() * a_from_b;
-  if (result.inliers < o.min_inliers || result.inliers < o.min_overlap * result.samples) {
+  if (!converged && !(result.unsettled_sigma <= o.max_unsettled_sigma)) {
+    result.reason = "did not converge";
+  } else if (result.inliers < o.min_inliers || result.inliers < o.min_overlap * result.samples) {
     result.reason = "too little overlap";
   } else if (rad2deg(rotation_angle(moved.linear())) > o.max_step_deg || moved.translation().norm() > o.max_step_m) {
     result.reason = "moved too far from the guess";

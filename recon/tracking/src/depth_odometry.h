@@ -18,7 +18,12 @@
 // than converged_step_sigma of its own standard deviation (sqrt(delta^T H delta)). Projective
 // association re-pairs samples as the pose moves, so the steps do not fall to zero: they settle into
 // a limit cycle of a few hundredths of a sigma, and a fixed tiny threshold (1e-7) ran most pairs to
-// max_iterations for nothing (recon/tracking/README.md, "Depth odometry", Cost).
+// max_iterations for nothing (recon/tracking/README.md, "Depth odometry", Cost). A pair still
+// moving after max_iterations is not used: unless its last five steps went nowhere (a limit cycle
+// above the threshold, max_unsettled_sigma), it is drifting along what it barely observes.
+// On a rotator (TurnAxis) the 6-DoF steps are preceded by turns about the rig's axis, then about a
+// point on it: the guess's error there is mostly a turn, and from a guess several degrees off a
+// 6-DoF start traded the turn for a slide and settled centimetres off (align_depth_grids).
 //
 // Which directions a sample informs: a wall's samples all but "measured" the slide along it
 // through their normals' scatter (AlignOptions::min_normal_alignment). The rotations and translations
@@ -28,6 +33,10 @@
 // (min_facing_share); along an unobserved direction only the samples facing it keep their Jacobian's
 // component, so Gauss-Newton and the information leave it where the guess put it (none facing: no
 // information at all). An observed direction keeps every sample.
+//
+// Which directions are unobserved is decided at the guess, again after the turns, and at the
+// solution for the information (from a guess several degrees off, b's samples of a plain wall met a
+// table in a at the guess, and the information claimed 1 mm along the wall's slides).
 //
 // The information: H = sum_k w_k J_k^T J_k / sigma_k^2 at the solution, in the (omega, v) order
 // of a right perturbation, times information_scale. Summing over every block treats their errors
@@ -48,7 +57,12 @@ namespace panoscan::depth_odometry {
 struct AlignOptions {
   double depth_noise_coefficient = 9.49e-4;  // sigma_z = c z^2 per sample (ARCHITECTURE.md §4.1)
   double max_distance_m = 0.10;              // the first iterations' 3-D pairing gate
-  int max_iterations = 30;
+  int max_iterations = 30;                   // of the 6-DoF phase
+  int max_turn_iterations = 10;              // of each turn phase before it (with a TurnAxis; 0: none)
+  // A pair that has not converged by max_iterations is used only when its last five steps moved it
+  // by at most this many of its standard deviations (a limit cycle of the projective association, not
+  // a drift; align_depth_grids).
+  double max_unsettled_sigma = 1.0;
   // Converged when a step moves the estimate by less than this many of its standard deviations.
   double converged_step_sigma = 0.1;
   double huber_delta = 2.796;       // on the whitened residual
@@ -82,12 +96,20 @@ struct AlignResult {
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();  // (omega, v), right perturbation
   int samples = 0, inliers = 0, iterations = 0;
   double whitened_rms = 0.0;  // RMS of the whitened residuals of the inliers
+  bool converged = false;     // a step fell below converged_step_sigma with the gate at its floor
+  double unsettled_sigma = 0.0;  // not converged: how far the last five steps moved it (its own sigmas)
+};
+
+// A line in b's frame about which the guess's error is a turn: the rig's axis on a rotator.
+struct TurnAxis {
+  Eigen::Vector3d point = Eigen::Vector3d::Zero(), direction = Eigen::Vector3d::UnitY();
 };
 
 // Aligns grid b to grid a (both of one camera: same intrinsics and block), starting from
-// a_from_b_guess.
+// a_from_b_guess: with `turn`, first turning b about that axis until the turn settles; then in all six
+// degrees of freedom.
 AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigid3d& a_from_b_guess,
-                              const AlignOptions& options);
+                              const AlignOptions& options, const TurnAxis* turn = nullptr);
 
 // The rows S with S^T S = information (eigen-decomposition; negative eigenvalues from rounding are
 // clipped to 0): the factor's residual is S (rotation vector, translation) of the error transform.

@@ -77,6 +77,8 @@ void TrackingVerifyOptions::check(const std::string& origin) const {
   require(max_unsupported_s > 0, "track.verify.max_unsupported_s", "must be > 0");
   require(max_depth_yaw_std_deg >= 0 && std::isfinite(max_depth_yaw_std_deg), "track.verify.max_depth_yaw_std_deg",
           "must be >= 0 (0: depth odometry never supports a frame)");
+  require(max_model_departure_sigma > 0 && std::isfinite(max_model_departure_sigma),
+          "track.verify.max_model_departure_sigma", "must be > 0");
 }
 
 const char* to_string(TrackingMode mode) {
@@ -204,6 +206,8 @@ TrackingOptions tracking_options_from_config(Config& config) {
   v.max_unsupported_s = config.get_double("track.verify.max_unsupported_s", v.max_unsupported_s, 1e-3, 3600.0);
   v.max_depth_yaw_std_deg =
       config.get_double("track.verify.max_depth_yaw_std_deg", v.max_depth_yaw_std_deg, 0.0, 180.0);
+  v.max_model_departure_sigma =
+      config.get_double("track.verify.max_model_departure_sigma", v.max_model_departure_sigma, 1e-3, 1e6);
   o.check(config.origin());
   return o;
 }
@@ -235,6 +239,16 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
 
   bool all_finite = true;
   TrackingResult result = tg::extract_tracking_result(state, scan, options, &all_finite);
+  result.depth_pair_residual = tg::depth_pair_residual_norms(graph, state);
+  {
+    const tg::ModelDeparture departure = tg::model_departures(graph, state, options);
+    result.model_departure_mm.resize(departure.translation_m.size());
+    result.model_departure_deg.resize(departure.rotation_rad.size());
+    for (std::size_t s = 0; s < departure.translation_m.size(); ++s) {
+      for (double t : departure.translation_m[s]) result.model_departure_mm[s].push_back(1e3 * t);
+      for (double r : departure.rotation_rad[s]) result.model_departure_deg[s].push_back(rad2deg(r));
+    }
+  }
   for (int s = 0; s < state.sensor_count; ++s) {
     if (!state.active[s]) continue;
     stats.frames += int(state.poses[s].size());
@@ -429,12 +443,17 @@ std::string tracking_stats_json(const TrackingResult& result, const RigInfo& rig
   for (std::size_t s = 0; s < v.frames.size() && s < rig.sensors.size(); ++s) {
     nlohmann::json observations = nlohmann::json::array(), gap = nlohmann::json::array(),
                    gap_s = nlohmann::json::array(), confidence = nlohmann::json::array(),
-                   depth_yaw = nlohmann::json::array(), depth_supported = nlohmann::json::array();
+                   depth_yaw = nlohmann::json::array(), depth_supported = nlohmann::json::array(),
+                   depth_residual = nlohmann::json::array(), departure_mm = nlohmann::json::array(),
+                   departure_deg = nlohmann::json::array();
     for (const FrameSupport& f : v.frames[s]) {
       observations.push_back(f.observations);
       // null: no depth-odometry pair (JSON has no infinity).
       depth_yaw.push_back(std::isfinite(f.depth_yaw_std_deg) ? nlohmann::json(f.depth_yaw_std_deg) : nlohmann::json());
       depth_supported.push_back(f.depth_supported);
+      depth_residual.push_back(std::isfinite(f.depth_residual) ? nlohmann::json(f.depth_residual) : nlohmann::json());
+      departure_mm.push_back(f.model_departure_mm);
+      departure_deg.push_back(f.model_departure_deg);
       gap.push_back(f.gap_deg);
       gap_s.push_back(f.gap_s);
       confidence.push_back(f.confidence);
@@ -444,6 +463,9 @@ std::string tracking_stats_json(const TrackingResult& result, const RigInfo& rig
                                    {"gap_s", std::move(gap_s)},
                                    {"depth_yaw_std_deg", std::move(depth_yaw)},
                                    {"depth_supported", std::move(depth_supported)},
+                                   {"depth_residual", std::move(depth_residual)},
+                                   {"model_departure_mm", std::move(departure_mm)},
+                                   {"model_departure_deg", std::move(departure_deg)},
                                    {"confidence", std::move(confidence)}};
   }
   j["frame_support"] = std::move(frames);

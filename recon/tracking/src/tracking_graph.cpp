@@ -400,11 +400,20 @@ void add_depth_odometry_factors(FactorGraph& graph, TrackingState& st, const Sca
   std::vector<depth_odometry::AlignResult> aligned(tasks.size());
   tbb::parallel_for(std::size_t(0), tasks.size(), [&](std::size_t k) {
     const auto [s, f] = tasks[k];
-    const Rigid3d guess = st.poses[s][f].pose().inverse() * st.poses[s][f + 1].pose();
-    aligned[k] = depth_odometry::align_depth_grids(grids[s][f], grids[s][f + 1], guess, align);
+    const Rigid3d world_from_b = st.poses[s][f + 1].pose();
+    const Rigid3d guess = st.poses[s][f].pose().inverse() * world_from_b;
+    // On the rotator the guess's error is mostly a turn about the axis: the ICP turns b about it
+    // first (depth_odometry.h).
+    depth_odometry::TurnAxis turn;
+    if (!st.handheld) {
+      const Rigid3d b_from_axis = world_from_b.inverse() * st.axis.pose();
+      turn.point = b_from_axis.translation();
+      turn.direction = b_from_axis.linear().col(2);
+    }
+    aligned[k] =
+        depth_odometry::align_depth_grids(grids[s][f], grids[s][f + 1], guess, align, st.handheld ? nullptr : &turn);
   });
-  // Huber on the whitened 6-vector: sqrt of chi2(6) 95%.
-  graph.depth_huber = std::make_unique<ceres::HuberLoss>(3.548);
+  graph.depth_huber = std::make_unique<ceres::HuberLoss>(kDepthOdometryHuber);
   for (std::size_t k = 0; k < tasks.size(); ++k) {
     graph.depth_icp_iterations += aligned[k].iterations;
     if (!aligned[k].ok) {
@@ -419,6 +428,7 @@ void add_depth_odometry_factors(FactorGraph& graph, TrackingState& st, const Sca
     graph.blocks[kDepthOdometry].push_back(graph.problem->AddResidualBlock(
         tf::RelativePoseCost::create(measured.q, measured.t, root.data()), graph.depth_huber.get(),
         st.poses[s][f].q, st.poses[s][f].t, st.poses[s][f + 1].q, st.poses[s][f + 1].t));
+    graph.depth_pair_frames.push_back({s, f});
     ++graph.depth_pairs;
   }
 }
@@ -687,19 +697,63 @@ TrackingResult extract_tracking_result(const TrackingState& st, const ScanIndex&
   return result;
 }
 
-std::vector<double> observation_residual_norms(FactorGraph& graph) {
-  std::vector<double> norms;
-  if (graph.blocks[kObservation].empty()) return norms;
+namespace {
+
+// The residuals of every block of one kind at the current state, without the loss function, in the
+// order the blocks were added.
+std::vector<double> unrobust_residuals(FactorGraph& graph, FactorKind kind) {
+  std::vector<double> residuals;
+  if (graph.blocks[kind].empty()) return residuals;
   ceres::Problem::EvaluateOptions evaluate;
-  evaluate.residual_blocks = graph.blocks[kObservation];
+  evaluate.residual_blocks = graph.blocks[kind];
   evaluate.apply_loss_function = false;
   evaluate.num_threads = 1;
-  std::vector<double> residuals;
   graph.problem->Evaluate(evaluate, nullptr, &residuals, nullptr, nullptr);
+  return residuals;
+}
+
+}  // namespace
+
+std::vector<double> observation_residual_norms(FactorGraph& graph) {
+  const std::vector<double> residuals = unrobust_residuals(graph, kObservation);
+  std::vector<double> norms;
   for (std::size_t k = 0; k + 2 < residuals.size(); k += 3)
     norms.push_back(std::sqrt(residuals[k] * residuals[k] + residuals[k + 1] * residuals[k + 1] +
                               residuals[k + 2] * residuals[k + 2]));
   return norms;
+}
+
+std::vector<std::vector<double>> depth_pair_residual_norms(FactorGraph& graph, const TrackingState& state) {
+  std::vector<std::vector<double>> norms(std::size_t(state.sensor_count));
+  for (int s = 0; s < state.sensor_count; ++s)
+    norms[std::size_t(s)].assign(state.poses[s].size(), std::numeric_limits<double>::infinity());
+  const std::vector<double> residuals = unrobust_residuals(graph, kDepthOdometry);
+  for (std::size_t k = 0; k < graph.depth_pair_frames.size() && 6 * k + 5 < residuals.size(); ++k) {
+    const auto [s, f] = graph.depth_pair_frames[k];
+    norms[std::size_t(s)][std::size_t(f)] = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(&residuals[6 * k]).norm();
+  }
+  return norms;
+}
+
+ModelDeparture model_departures(FactorGraph& graph, const TrackingState& state, const TrackingOptions& options) {
+  ModelDeparture out;
+  const std::vector<double> residuals = unrobust_residuals(graph, kRegularisation);
+  if (residuals.empty()) return out;
+  out.translation_m.resize(std::size_t(state.sensor_count));
+  out.rotation_rad.resize(std::size_t(state.sensor_count));
+  // The blocks were added camera by camera, frame by frame (add_regularisation_factors); the
+  // residual is (translation / sigma_t, rotation vector / sigma_r).
+  std::size_t k = 0;
+  const double sigma_t = options.reg_translation_std_m, sigma_r = deg2rad(options.reg_rotation_std_deg);
+  for (int s = 0; s < state.sensor_count; ++s) {
+    if (!state.active[s]) continue;
+    for (std::size_t f = 0; f < state.poses[s].size() && 6 * k + 5 < residuals.size(); ++f, ++k) {
+      const Eigen::Map<const Eigen::Matrix<double, 6, 1>> r(&residuals[6 * k]);
+      out.translation_m[std::size_t(s)].push_back(r.head<3>().norm() * sigma_t);
+      out.rotation_rad[std::size_t(s)].push_back(r.tail<3>().norm() * sigma_r);
+    }
+  }
+  return out;
 }
 
 }  // namespace panoscan::tracking_graph

@@ -75,6 +75,8 @@ struct FactorGraph {
   int shared_wobble_links = 0;
   int depth_pairs = 0, depth_pairs_rejected = 0;  // add_depth_odometry_factors
   int depth_icp_iterations = 0;                   // summed over the aligned pairs
+  // Per block of blocks[kDepthOdometry]: its camera and first frame (the pair is (f, f + 1)).
+  std::vector<std::array<int, 2>> depth_pair_frames;
   std::unique_ptr<ceres::HuberLoss> depth_huber;
   // The Schur solvers' elimination order (fix_gauge, track.schur_ordering=landmarks); null = Ceres' own.
   std::shared_ptr<ceres::ParameterBlockOrdering> schur_ordering;
@@ -126,5 +128,16 @@ std::vector<double> azimuths(const std::vector<Rigid3d>& world_from_cam, const R
 // The whitened residual norm of every observation (Eq. 1) at the current state, per track, per
 // observation, in the order of state.tracks (for the verification's residual statistics).
 std::vector<double> observation_residual_norms(FactorGraph& graph);
+
+// Per sensor, per frame f: the whitened norm of the depth-odometry factor of the pair (f, f + 1) at
+// the current state, without its Huber loss (+inf where the graph has no such factor).
+std::vector<std::vector<double>> depth_pair_residual_norms(FactorGraph& graph, const TrackingState& state);
+
+// Per sensor, per frame: how far the frame's pose departs from the rotator model (Eq. 2's error
+// transform at the current state: translation in m, rotation in rad); empty without Eq. 2.
+struct ModelDeparture {
+  std::vector<std::vector<double>> translation_m, rotation_rad;
+};
+ModelDeparture model_departures(FactorGraph& graph, const TrackingState& state, const TrackingOptions& options);
 
 }  // namespace panoscan::tracking_graph

@@ -129,6 +129,16 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
   // longest stretch between two of them: on the rotator as a turn (time x mean turn rate, so that a
   // wrong azimuth cannot hide it), handheld in seconds. Depth pairs count on the rotator only: there
   // the turn is the one direction the check is about; a handheld pose has six.
+  // A pair (first frame k) that measures the turn and that the solution agrees with.
+  auto pair_supports = [&](int s, std::size_t k) {
+    const std::size_t sensor = std::size_t(s);
+    const bool measures = sensor < result.depth_yaw_std_deg.size() && k < result.depth_yaw_std_deg[sensor].size() &&
+                          result.depth_yaw_std_deg[sensor][k] <= v.max_depth_yaw_std_deg;
+    // A result without the residuals (built by hand) is taken as agreeing.
+    const bool agrees = sensor >= result.depth_pair_residual.size() || k >= result.depth_pair_residual[sensor].size() ||
+                        result.depth_pair_residual[sensor][k] <= kDepthOdometryHuber;
+    return measures && agrees;
+  };
   auto depth_yaw_std = [&](int s, std::size_t f) {
     double best = std::numeric_limits<double>::infinity();
     if (std::size_t(s) < result.depth_yaw_std_deg.size()) {
@@ -140,7 +150,7 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
   };
   auto depth_supported = [&](int s, std::size_t f) {
     return rotator && v.max_depth_yaw_std_deg > 0 && !observations[s].empty() &&
-           depth_yaw_std(s, f) <= v.max_depth_yaw_std_deg;
+           (pair_supports(s, f) || (f >= 1 && pair_supports(s, f - 1)));
   };
   std::vector<double> supported_times;
   for (int s = 0; s < sensors; ++s)
@@ -163,6 +173,12 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
       support.observations = f < observations[s].size() ? observations[s][f] : 0;
       support.depth_yaw_std_deg = depth_yaw_std(s, f);
       support.depth_supported = f < observations[s].size() && depth_supported(s, f);
+      if (std::size_t(s) < result.depth_pair_residual.size() && f < result.depth_pair_residual[std::size_t(s)].size())
+        support.depth_residual = result.depth_pair_residual[std::size_t(s)][f];
+      if (std::size_t(s) < result.model_departure_mm.size() && f < result.model_departure_mm[std::size_t(s)].size()) {
+        support.model_departure_mm = result.model_departure_mm[std::size_t(s)][f];
+        support.model_departure_deg = result.model_departure_deg[std::size_t(s)][f];
+      }
       const double t = scan.frames[s][f].timestamp;
       double nearest_s = std::numeric_limits<double>::infinity();
       const auto it = std::lower_bound(supported_times.begin(), supported_times.end(), t);
@@ -187,7 +203,8 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
   else if (rotator)
     frames_detail = fmt::format(
         "the longest stretch without a frame of {} or more observations or a depth-odometry pair that measures "
-        "the turn to {:.2f} deg spans {:.1f} deg of the turn (at most {:.0f}): there only Eq. 2-3 carry the azimuth",
+        "the turn to {:.2f} deg and agrees with the solution spans {:.1f} deg of the turn (at most {:.0f}): there "
+        "only Eq. 2-3 carry the azimuth",
         v.min_frame_observations, v.max_depth_yaw_std_deg, longest_gap, v.max_unsupported_turn_deg);
   else
     frames_detail = fmt::format(
@@ -207,6 +224,34 @@ TrackingVerdict verify_tracking(const TrackingResult& result, const ScanIndex& s
         fmt::format(
             "the azimuth steps back by up to {:.2f} deg between frames (at most {:.1f}); the rotator turns one way",
             worst_backward_deg, v.max_backward_step_deg));
+  }
+
+  // model: each frame's departure from the rotator model (Eq. 2), whitened by Eq. 2's standard deviations.
+  if (rotator) {
+    const double sigma_mm = 1e3 * options.reg_translation_std_m, sigma_deg = options.reg_rotation_std_deg;
+    double worst = 0.0, worst_mm = 0.0, worst_deg = 0.0;
+    std::string worst_frame;
+    bool modelled = false;
+    for (int s = 0; s < sensors && std::size_t(s) < result.model_departure_mm.size(); ++s)
+      for (std::size_t f = 0; f < result.model_departure_mm[std::size_t(s)].size() &&
+                              f < result.model_departure_deg[std::size_t(s)].size();
+           ++f) {
+        modelled = true;
+        const double mm = result.model_departure_mm[std::size_t(s)][f],
+                     deg = result.model_departure_deg[std::size_t(s)][f];
+        const double sigma = std::hypot(mm / sigma_mm, deg / sigma_deg);
+        if (!(sigma <= worst) || worst_frame.empty()) {  // a NaN is the worst
+          worst = std::isnan(sigma) ? std::numeric_limits<double>::infinity() : sigma;
+          worst_mm = mm;
+          worst_deg = deg;
+          worst_frame = fmt::format("{} frame {}", scan.rig.sensors[std::size_t(s)].name, f);
+        }
+      }
+    if (modelled)
+      add("model", worst <= v.max_model_departure_sigma, worst, v.max_model_departure_sigma,
+          fmt::format("{} departs {:.1f} mm / {:.2f} deg from the rotator model, {:.1f} times Eq. 2's {:.0f} mm / "
+                      "{:.1f} deg (at most {:.1f}): the rig's wobble cannot put a camera there",
+                      worst_frame, worst_mm, worst_deg, worst, sigma_mm, sigma_deg, v.max_model_departure_sigma));
   }
 
   // pairs and loop: the front end's verified frame pairs.
