@@ -1,6 +1,7 @@
 // The depth odometry of the tracking (recon/tracking/src/depth_odometry.h; beyond the paper) on
 // depth images of planes computed in closed form, where the true a_from_b is known: the ICP
-// recovers it from a guess a degree and centimetres off, with and without disparity-like noise;
+// recovers it from a guess a degree and centimetres off, with and without disparity-like noise, and on
+// the rotator from a guess several degrees short of the turn (a pair still drifting is refused);
 // in front of a single wall its information says which three directions the wall observes and
 // which three it does not, also through noise that scatters the normals (and a wall meeting the
 // ceiling leaves the slide along their edge, a depth step lends its samples no normal); frames that do
@@ -328,6 +329,35 @@ TEST(DepthOdometry, ATurnFourDegreesShortIsTurnedAboutTheRigAxisFirst) {
                 (direct.a_from_b.translation() - a_from_b.translation()).norm() > 5e-3)
         << scene.name;
   }
+}
+
+// A pair still drifting when its iterations run out is not a measurement: in a corner of two walls,
+// from a guess 5 deg short of the turn (no axis to turn about), the ICP slides along what the pair
+// barely observes to the last iteration, 5 of its own sigmas over the last five steps. It is refused;
+// used (max_unsettled_sigma off, as before session 48), it claims a pose 20 cm off.
+TEST(DepthOdometry, APairStillDriftingAfterItsIterationsIsRefused) {
+  const PinholeIntrinsics in = PinholeIntrinsics::primesense(640, 480);
+  const std::vector<Plane> two_walls = {{{0, 0, 1}, 2.5}, {{1, 0, 0}, 1.5}};
+  RandomStream noise(11, 0, 0, RandomPurpose::kGeneric);
+  const Rigid3d world_from_a = make_rigid(so3_exp(Eigen::Vector3d(0, 0.3, 0)), Eigen::Vector3d::Zero());
+  const Rigid3d a_from_b = turn_about_rig_axis(8.6);
+  const DepthGrid a =
+      make_depth_grid(render_planes(two_walls, world_from_a, in, &noise, 0.5), in, 4, kNoiseCoefficient);
+  const DepthGrid b =
+      make_depth_grid(render_planes(two_walls, world_from_a * a_from_b, in, &noise, 0.5), in, 4, kNoiseCoefficient);
+  const Rigid3d guess = a_from_b * turn_about_rig_axis(-5.0);
+  depth_odometry::AlignOptions options;
+  options.depth_noise_coefficient = kNoiseCoefficient;
+  const depth_odometry::AlignResult refused = depth_odometry::align_depth_grids(a, b, guess, options);
+  EXPECT_FALSE(refused.ok);
+  EXPECT_EQ(refused.reason, "did not converge");
+  EXPECT_FALSE(refused.converged);
+  EXPECT_GT(refused.unsettled_sigma, options.max_unsettled_sigma);
+
+  options.max_unsettled_sigma = std::numeric_limits<double>::infinity();
+  const depth_odometry::AlignResult used = depth_odometry::align_depth_grids(a, b, guess, options);
+  ASSERT_TRUE(used.ok) << used.reason;
+  EXPECT_GT((used.a_from_b.translation() - a_from_b.translation()).norm(), 0.1);
 }
 
 }  // namespace

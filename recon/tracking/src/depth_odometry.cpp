@@ -240,7 +240,6 @@ Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, c
     const double gate = std::max(gate_before_floor, 4.0 * sigma + footprint);
     const Eigen::Vector3d diff = moved - q;
     if (diff.squaredNorm() > gate * gate) continue;
-
     const double inverse_sigma = 1.0 / sigma;
     const double r = normal.dot(diff) * inverse_sigma;
     const double weight = std::abs(r) <= o.huber_delta ? 1.0 : o.huber_delta / std::abs(r);
