@@ -240,15 +240,9 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   bool all_finite = true;
   TrackingResult result = tg::extract_tracking_result(state, scan, options, &all_finite);
   result.depth_pair_residual = tg::depth_pair_residual_norms(graph, state);
-  {
-    const tg::ModelDeparture departure = tg::model_departures(graph, state, options);
-    result.model_departure_mm.resize(departure.translation_m.size());
-    result.model_departure_deg.resize(departure.rotation_rad.size());
-    for (std::size_t s = 0; s < departure.translation_m.size(); ++s) {
-      for (double t : departure.translation_m[s]) result.model_departure_mm[s].push_back(1e3 * t);
-      for (double r : departure.rotation_rad[s]) result.model_departure_deg[s].push_back(rad2deg(r));
-    }
-  }
+  tg::ModelDeparture departure = tg::model_departures(graph, state, options);
+  result.model_departure_mm = std::move(departure.translation_mm);
+  result.model_departure_deg = std::move(departure.rotation_deg);
   for (int s = 0; s < state.sensor_count; ++s) {
     if (!state.active[s]) continue;
     stats.frames += int(state.poses[s].size());

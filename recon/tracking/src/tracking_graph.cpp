@@ -739,8 +739,8 @@ ModelDeparture model_departures(FactorGraph& graph, const TrackingState& state, 
   ModelDeparture out;
   const std::vector<double> residuals = unrobust_residuals(graph, kRegularisation);
   if (residuals.empty()) return out;
-  out.translation_m.resize(std::size_t(state.sensor_count));
-  out.rotation_rad.resize(std::size_t(state.sensor_count));
+  out.translation_mm.resize(std::size_t(state.sensor_count));
+  out.rotation_deg.resize(std::size_t(state.sensor_count));
   // The blocks were added camera by camera, frame by frame (add_regularisation_factors); the
   // residual is (translation / sigma_t, rotation vector / sigma_r).
   std::size_t k = 0;
@@ -749,8 +749,8 @@ ModelDeparture model_departures(FactorGraph& graph, const TrackingState& state, 
     if (!state.active[s]) continue;
     for (std::size_t f = 0; f < state.poses[s].size() && 6 * k + 5 < residuals.size(); ++f, ++k) {
       const Eigen::Map<const Eigen::Matrix<double, 6, 1>> r(&residuals[6 * k]);
-      out.translation_m[std::size_t(s)].push_back(r.head<3>().norm() * sigma_t);
-      out.rotation_rad[std::size_t(s)].push_back(r.tail<3>().norm() * sigma_r);
+      out.translation_mm[std::size_t(s)].push_back(1e3 * (r.head<3>().norm() * sigma_t));
+      out.rotation_deg[std::size_t(s)].push_back(rad2deg(r.tail<3>().norm() * sigma_r));
     }
   }
   return out;

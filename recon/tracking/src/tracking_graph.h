@@ -134,9 +134,10 @@ std::vector<double> observation_residual_norms(FactorGraph& graph);
 std::vector<std::vector<double>> depth_pair_residual_norms(FactorGraph& graph, const TrackingState& state);
 
 // Per sensor, per frame: how far the frame's pose departs from the rotator model (Eq. 2's error
-// transform at the current state: translation in m, rotation in rad); empty without Eq. 2.
+// transform at the current state, TrackingResult's units: translation in mm, rotation in deg); empty
+// without Eq. 2.
 struct ModelDeparture {
-  std::vector<std::vector<double>> translation_m, rotation_rad;
+  std::vector<std::vector<double>> translation_mm, rotation_deg;
 };
 ModelDeparture model_departures(FactorGraph& graph, const TrackingState& state, const TrackingOptions& options);
 
