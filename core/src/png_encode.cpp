@@ -1,4 +1,5 @@
-// PNG encoding in memory with libdeflate (docs/ARCHITECTURE.md §3.4 for the images). Written here
+// PNG encoding in memory with libdeflate, and at level 1 for colour our literals-and-runs deflate
+// (deflate_runs.h) (docs/ARCHITECTURE.md §3.4 for the images). Written here
 // rather than through OpenCV/libpng because the simulator writes two PNGs per frame and libpng +
 // zlib were 28% of a sim run's CPU time: libpng's adaptive filter heuristic tries every filter on
 // every row, zlib is slower than libdeflate at the same level, and the file had to be written by
@@ -11,6 +12,7 @@
 
 #include <libdeflate.h>
 
+#include "deflate_runs.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/image_io.h"
 
@@ -76,10 +78,16 @@ std::size_t filtered_cost(const std::uint8_t* filtered, std::size_t n) {
   return sum;
 }
 
-// `raw`: rows of `row_bytes` bytes, samples already in PNG byte order. At the fast levels 0 and 1
-// the rows are not filtered: choosing per row would cost more than it saves, and on rendered frames
-// no filter is both the smallest and the fastest (encode_png and encode_png16 give the figures).
-std::string encode(const std::uint8_t* raw, int width, int height, int channels, int bit_depth, int compression) {
+// How level 1 codes an image: the rows unfiltered and libdeflate's level 1 (depth), or Sub-filtered
+// and coded as literals and runs (colour; deflate_runs.h).
+enum class FastestLevel { kUnfilteredLibdeflate, kSubFilteredRuns };
+
+// `raw`: rows of `row_bytes` bytes, samples already in PNG byte order. Level 0 stores the rows
+// unfiltered; level 1 as `fastest` says: choosing a filter per row would cost more than it saves;
+// levels 2-9 choose each row's filter as libpng does and compress with libdeflate at that level.
+std::string encode(const std::uint8_t* raw, int width, int height, int channels, int bit_depth, int compression,
+                   FastestLevel fastest) {
+  const bool runs = compression == 1 && fastest == FastestLevel::kSubFilteredRuns;
   if (compression < 0 || compression > 9)
     throw make_error("<png>", "compression", "expected an integer in [0, 9], found " + std::to_string(compression));
   const int bpp = channels * bit_depth / 8;
@@ -93,9 +101,12 @@ std::string encode(const std::uint8_t* raw, int width, int height, int channels,
     const std::uint8_t* row = raw + row_bytes * y;
     const std::uint8_t* prior = y > 0 ? row - row_bytes : zero_row.data();
     std::uint8_t* out = filtered.get() + (row_bytes + 1) * y;
-    if (compression <= 1) {
+    if (compression <= 1 && !runs) {
       out[0] = 0;
       std::memcpy(out + 1, row, row_bytes);
+    } else if (runs) {
+      out[0] = 1;
+      filter_row(1, row, prior, row_bytes, bpp, out + 1);
     } else {
       std::size_t best_cost = ~std::size_t(0);
       for (int type = 0; type <= 4; ++type) {
@@ -110,16 +121,23 @@ std::string encode(const std::uint8_t* raw, int width, int height, int channels,
     }
   }
 
-  // libdeflate rather than zlib: about 3x faster at the same level and smaller output (the
-  // measurements are in sim/README.md). Level 0 maps to its "store" level.
-  libdeflate_compressor* compressor = libdeflate_alloc_compressor(compression);
-  if (!compressor) throw make_error("<png>", "", "libdeflate: cannot allocate a compressor");
-  const std::size_t bound = libdeflate_zlib_compress_bound(compressor, filtered_size);
-  const std::unique_ptr<std::uint8_t[]> compressed(new std::uint8_t[bound]);
-  const std::size_t compressed_size =
-      libdeflate_zlib_compress(compressor, filtered.get(), filtered_size, compressed.get(), bound);
-  libdeflate_free_compressor(compressor);
-  if (compressed_size == 0) throw make_error("<png>", "", "libdeflate: compression failed");
+  std::unique_ptr<std::uint8_t[]> compressed;
+  std::size_t compressed_size = 0;
+  if (runs) {
+    // Literals and runs only: 2x libdeflate's level 1 on the simulator's colour frames, 5% larger.
+    compressed.reset(new std::uint8_t[detail::zlib_runs_bound(filtered_size)]);
+    compressed_size = detail::zlib_compress_runs(filtered.get(), filtered_size, compressed.get());
+  } else {
+    // libdeflate rather than zlib: about 3x faster at the same level and smaller output (the
+    // measurements are in sim/README.md). Level 0 maps to its "store" level.
+    libdeflate_compressor* compressor = libdeflate_alloc_compressor(compression);
+    if (!compressor) throw make_error("<png>", "", "libdeflate: cannot allocate a compressor");
+    const std::size_t bound = libdeflate_zlib_compress_bound(compressor, filtered_size);
+    compressed.reset(new std::uint8_t[bound]);
+    compressed_size = libdeflate_zlib_compress(compressor, filtered.get(), filtered_size, compressed.get(), bound);
+    libdeflate_free_compressor(compressor);
+    if (compressed_size == 0) throw make_error("<png>", "", "libdeflate: compression failed");
+  }
 
   std::string png;
   png.reserve(compressed_size + 64);
@@ -154,12 +172,11 @@ void check_encodable(int width, int height, int channels, std::size_t size, int 
 
 std::string encode_png(const ImageU8& image, int compression) {
   check_encodable(image.width, image.height, image.channels, image.data.size(), (1 << 1) | (1 << 3));
-  // No filter at the fast levels. On the rendered 640x480 frames of this round's rooms (plain walls,
-  // the sensor's colour noise) at level 1, no filter gives the smallest files and the fastest
-  // deflate: per frame 176 KB in 2.8 ms against Sub's 178 KB in 3.4 ms (office), 192 against 204 KB
-  // (living room), 383 against 390 KB (office, rich textures); Up, Average and Paeth are larger or
-  // slower still. (Sub was 20% smaller on the earlier rooms, textured on every surface.)
-  return encode(image.data.data(), image.width, image.height, image.channels, 8, compression);
+  // Level 1: Sub-filtered literals and runs. On the simulator's 640x480 colour frames (plain walls,
+  // the sensor's colour noise) this is 1.5 ms and 185 KB per frame against libdeflate's level 1
+  // without a filter, 2.8 ms and 176 KB (its smallest and fastest filter there; sim/README.md).
+  return encode(image.data.data(), image.width, image.height, image.channels, 8, compression,
+                FastestLevel::kSubFilteredRuns);
 }
 
 std::string encode_png16(const ImageU16& image, int compression) {
@@ -170,10 +187,12 @@ std::string encode_png16(const ImageU16& image, int compression) {
     big_endian[2 * i] = std::uint8_t(image.data[i] >> 8);
     big_endian[2 * i + 1] = std::uint8_t(image.data[i]);
   }
-  // No filter at the fast levels: depth's runs of zeros (no measurement) and of equal quantised
-  // values are matches as they stand; on simulated frames at level 1 this is both the fastest and
-  // the smallest (Sub +10%, Up and Paeth +50% in size).
-  return encode(big_endian.get(), image.width, image.height, 1, 16, compression);
+  // Level 1: no filter and libdeflate. Depth's runs of zeros (no measurement) and of equal quantised
+  // values are matches as they stand; on simulated frames this is both the fastest and the smallest
+  // of libdeflate's (Sub +10%, Up and Paeth +50% in size). Literals and runs would take 1.3 instead
+  // of 1.9 ms but 137 instead of 84 KB per frame: on this machine's ext4 the kernel spends about
+  // 4 ms of CPU per MB written, more than the encoding saves.
+  return encode(big_endian.get(), image.width, image.height, 1, 16, compression, FastestLevel::kUnfilteredLibdeflate);
 }
 
 }  // namespace panoscan
