@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -187,7 +188,53 @@ SourceSamples source_samples(const DepthGrid& b, double c) {
 struct JacobianRows {
   Eigen::Matrix<double, Eigen::Dynamic, 6> rows, weighted_rows;  // column k: the k-th component of every row
   Eigen::VectorXd residuals;
+  // A FacingShare pass keeps every component and records here which directions each row faces (bit
+  // i: direction i), so that the pass after it, at the same pose with the directions decided from its
+  // shares, is these rows with the components dropped (normal_equations) instead of another pass.
+  std::vector<std::uint8_t> facing;
 };
+
+// The normal equations of the first `count` stored rows: sum_k w_k J_k J_k^T and sum_k w_k J_k r_k as
+// dot products of the stored columns (a 6 x 6 outer product per sample was a sixth of the time, a
+// matrix product over the rows still a tenth), turned from the directions' basis to (omega, v).
+void normal_equations(const JacobianRows& work, Eigen::Index count, const Directions* directions, Linearisation& lin) {
+  Matrix6d hessian;
+  Vector6d gradient;
+  for (int i = 0; i < 6; ++i) {
+    const auto weighted = work.weighted_rows.col(i).head(count);
+    for (int k = i; k < 6; ++k) hessian(i, k) = hessian(k, i) = weighted.dot(work.rows.col(k).head(count));
+    gradient[i] = weighted.dot(work.residuals.head(count));
+  }
+  if (directions) {
+    Matrix6d to_tangent = Matrix6d::Zero();
+    to_tangent.topLeftCorner<3, 3>() = directions->rotation;
+    to_tangent.bottomRightCorner<3, 3>() = directions->translation;
+    lin.hessian.noalias() = to_tangent * hessian * to_tangent.transpose();
+    lin.gradient.noalias() = to_tangent * gradient;
+  } else {
+    lin.hessian = hessian;
+    lin.gradient = gradient;
+  }
+}
+
+// What linearise with `directions` returns at the pose and gate of the FacingShare pass that filled
+// `work` (`share_pass`: its inliers and squared residuals): the stored rows, each component along an
+// unobserved direction the row does not face set to zero, as linearise sets it. The same numbers as
+// that pass, one projection of b's samples fewer.
+Linearisation linearisation_after_share(JacobianRows& work, const Linearisation& share_pass,
+                                        const Directions& directions) {
+  Linearisation lin;
+  lin.inliers = share_pass.inliers;
+  lin.whitened_sq = share_pass.whitened_sq;
+  const Eigen::Index count = share_pass.inliers;
+  for (int i = 0; i < 6; ++i) {
+    if (!directions.unobserved[std::size_t(i)]) continue;
+    for (Eigen::Index row = 0; row < count; ++row)
+      if (!(work.facing[std::size_t(row)] >> i & 1u)) work.rows(row, i) = work.weighted_rows(row, i) = 0.0;
+  }
+  normal_equations(work, count, &directions, lin);
+  return lin;
+}
 
 // The normal equations of the point-to-plane residuals at a_from_b, pairs within the gate of
 // iteration `iteration` (the gate halves from max_distance_m down to 4 sigma + one block's footprint).
@@ -218,6 +265,7 @@ Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, c
     work.weighted_rows.resize(Eigen::Index(n), 6);
     work.residuals.resize(Eigen::Index(n));
   }
+  if (share && work.facing.size() < n) work.facing.resize(n);
   Eigen::Index count = 0;
   for (std::size_t s = 0; s < n; ++s) {
     const Eigen::Vector3d& p = b.points[s];
@@ -250,6 +298,7 @@ Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, c
       const Eigen::Vector3d wide_about = about_of_cross * rotated.cross(wide);
       const Eigen::Vector3d wide_along = along_of_normal * wide;
       const double arm = b.arm[s];
+      std::uint8_t facing = 0;
       for (int i = 0; i < 3; ++i) {
         const bool faces_rotation = std::abs(wide_about[i]) >= o.min_normal_alignment * arm;
         const bool faces_translation = std::abs(wide_along[i]) >= o.min_normal_alignment;
@@ -260,10 +309,13 @@ Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, c
           share->all[std::size_t(3 + i)] += translation_information;
           if (faces_rotation) share->facing[std::size_t(i)] += rotation_information;
           if (faces_translation) share->facing[std::size_t(3 + i)] += translation_information;
+          facing |= std::uint8_t((faces_rotation ? 1u : 0u) << i | (faces_translation ? 1u : 0u) << (3 + i));
+          continue;  // every component kept; linearisation_after_share drops them
         }
         if (directions->unobserved[std::size_t(i)] && !faces_rotation) about[i] = 0.0;
         if (directions->unobserved[std::size_t(3 + i)] && !faces_translation) along[i] = 0.0;
       }
+      if (share) work.facing[std::size_t(count)] = facing;
     }
     for (int i = 0; i < 3; ++i) {
       work.rows(count, i) = about[i] * inverse_sigma;
@@ -275,25 +327,7 @@ Linearisation linearise(const SurfaceGrid& a, const PinholeIntrinsics& grid_a, c
     ++count;
   }
   lin.inliers = int(count);
-  // sum_k w_k J_k J_k^T and sum_k w_k J_k r_k as dot products of the stored columns (a 6 x 6 outer
-  // product per sample was a sixth of the time, a matrix product over the rows still a tenth).
-  Matrix6d hessian;
-  Vector6d gradient;
-  for (int i = 0; i < 6; ++i) {
-    const auto weighted = work.weighted_rows.col(i).head(count);
-    for (int k = i; k < 6; ++k) hessian(i, k) = hessian(k, i) = weighted.dot(work.rows.col(k).head(count));
-    gradient[i] = weighted.dot(work.residuals.head(count));
-  }
-  if (directions) {
-    Matrix6d to_tangent = Matrix6d::Zero();
-    to_tangent.topLeftCorner<3, 3>() = directions->rotation;
-    to_tangent.bottomRightCorner<3, 3>() = directions->translation;
-    lin.hessian.noalias() = to_tangent * hessian * to_tangent.transpose();
-    lin.gradient.noalias() = to_tangent * gradient;
-  } else {
-    lin.hessian = hessian;
-    lin.gradient = gradient;
-  }
+  normal_equations(work, count, directions, lin);
   return lin;
 }
 
@@ -318,6 +352,10 @@ AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigi
   // solution for the information.
   Directions directions;
   const Directions* resolved = nullptr;
+  // The linearisation at the current pose and gate, where one was made before the pose moved: each
+  // resolve_directions ends with the rows of the pass that follows it (linearisation_after_share), and
+  // a skipped turn phase leaves its own. Bit for bit what another pass would give.
+  std::optional<Linearisation> ready;
   auto resolve_directions = [&](int gate_level) {
     if (!(o.min_normal_alignment > 0.0)) return;
     const Linearisation first = linearise(target, a.intrinsics, source, a_from_b, gate_level, o, work);
@@ -326,10 +364,12 @@ AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigi
     directions.rotation = rotation.eigenvectors();
     directions.translation = translation.eigenvectors();
     FacingShare share;
-    linearise(target, a.intrinsics, source, a_from_b, gate_level, o, work, &directions, &share);
+    const Linearisation share_pass =
+        linearise(target, a.intrinsics, source, a_from_b, gate_level, o, work, &directions, &share);
     for (std::size_t i = 0; i < 6; ++i)
       directions.unobserved[i] = !(share.facing[i] >= o.min_facing_share * share.all[i]);
     resolved = &directions;
+    ready = linearisation_after_share(work, share_pass, directions);
   };
   resolve_directions(0);
 
@@ -369,7 +409,9 @@ AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigi
   bool converged = false;
   std::vector<Rigid3d> history;  // the estimate after each step of phase 3
   while (iteration - turn_iterations < o.max_iterations) {
-    const Linearisation lin = linearise(target, a.intrinsics, source, a_from_b, gate_level, o, work, resolved);
+    const Linearisation lin =
+        ready ? *ready : linearise(target, a.intrinsics, source, a_from_b, gate_level, o, work, resolved);
+    ready.reset();
     if (lin.inliers < 6) break;
     Vector6d delta;
     if (phase == Phase::kTurnAboutAxis) {
@@ -377,7 +419,8 @@ AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigi
       const double curvature = axis_turn.dot(lin.hessian * axis_turn);
       if (!(curvature > 1e-9 * lin.hessian.trace())) {
         phase_iterations = 0;
-        next_phase();
+        next_phase();  // to the turns about the pivot, at the same pose
+        ready = lin;
         continue;
       }
       delta = -(axis_turn.dot(lin.gradient) / curvature) * axis_turn;
@@ -434,9 +477,10 @@ AlignResult align_depth_grids(const DepthGrid& a, const DepthGrid& b, const Rigi
   // The information at the solution, with the final (tightest) gate, over the directions the samples
   // observe there. Decided at the guess only, a guess several degrees off let b's samples of a plain
   // wall meet a table in a, and the information claimed 1 mm along the wall's slides.
+  ready.reset();
   resolve_directions(o.max_iterations + 64);
   const Linearisation final_lin =
-      linearise(target, a.intrinsics, source, a_from_b, o.max_iterations + 64, o, work, resolved);
+      ready ? *ready : linearise(target, a.intrinsics, source, a_from_b, o.max_iterations + 64, o, work, resolved);
   result.inliers = final_lin.inliers;
   result.a_from_b = a_from_b;
   result.information = o.information_scale * final_lin.hessian;
