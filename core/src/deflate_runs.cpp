@@ -1,18 +1,16 @@
 // A DEFLATE writer for literals and runs (see deflate_runs.h). Why it exists: the simulator writes two
-// PNGs per frame, and at libdeflate's fastest level (1) their deflate was a quarter of a sim run's CPU
-// time, most of it spent looking for matches that noisy colour and depth rarely have. After PNG's Sub
-// filter the matches those images do have are runs (equal neighbouring pixels become runs of zeros);
-// coding only those with per-block Huffman codes gives files within a few per cent of libdeflate's
-// level 1 at 2-3x its speed (sim/README.md has the measurements). zlib's Z_RLE strategy does the same
-// but is slower than libdeflate itself, and ISA-L's igzip did not give the same bytes for the same
-// input (sim/README.md).
+// PNGs per frame, and libdeflate's fastest level (1) spent most of a colour frame's 2.8 ms looking for
+// matches that noisy colour rarely has. After PNG's Sub filter the matches such a frame does have are
+// runs (equal neighbouring pixels become runs of zeros); coding only those with per-block Huffman codes
+// takes 1.5 ms for a file 5-13% larger (sim/README.md has the measurements; depth, whose matches are
+// not only runs, stays libdeflate's). zlib's Z_RLE strategy codes the same tokens but is slower than
+// libdeflate itself, and ISA-L's igzip did not give the same bytes for the same input (sim/README.md).
 #include "deflate_runs.h"
 
 #include <algorithm>
 #include <array>
 #include <memory>
 #include <cstring>
-#include <numeric>
 #include <vector>
 
 #include <libdeflate.h>
