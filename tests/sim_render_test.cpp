@@ -214,6 +214,19 @@ TEST(Renderer, RowShadingIsBitIdenticalToThePerPixelShading) {
       EXPECT_EQ(geometry.normal_cam.data, rows.normal_cam.data);
       EXPECT_EQ(std::count(geometry.rgb.data.begin(), geometry.rgb.data.end(), 0),
                 std::ptrdiff_t(geometry.rgb.data.size()));
+      // Without triangle ids (the simulator's views without --ids): the same images, no id image;
+      // rows rendered into a view allocated without ids, with ids requested, are refused.
+      RenderRequest no_ids = request;
+      no_ids.triangle_ids = false;
+      for (const RenderedView& view : {renderer.render(pose, k, no_ids), renderer.render_per_pixel(pose, k, no_ids)}) {
+        EXPECT_TRUE(view.triangle_id.data.empty());
+        EXPECT_EQ(view.depth.data, rows.depth.data);
+        EXPECT_EQ(view.incidence_cos.data, rows.incidence_cos.data);
+        EXPECT_EQ(view.normal_cam.data, rows.normal_cam.data);
+        EXPECT_EQ(view.rgb.data, rows.rgb.data);
+      }
+      RenderedView without_ids = Renderer::allocate(k, no_ids);
+      EXPECT_THROW(renderer.render_rows(pose, k, 0, k.height, without_ids, request), Error);
       // Not vacuous: hits with different colours, and misses.
       const std::set<std::uint8_t> reds(rows.rgb.data.begin(), rows.rgb.data.end());
       EXPECT_GT(reds.size(), 20u);

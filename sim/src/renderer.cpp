@@ -335,7 +335,7 @@ namespace {
 
 // A view's images, `filled` with the values of "nothing hit" (depth, incidence, colour and normals
 // 0, triangle -1), or else left uninitialised for a caller that renders every row: render_rows
-// copies every pixel of depth, incidence, triangle ids and (if requested) normals, and of the colour
+// copies every pixel of depth, incidence and (if requested) triangle ids and normals, and of the colour
 // unless the request has none (then it stays black, so it is filled either way). The zero fill was a
 // pass over 5 MB per 640x480 frame.
 RenderedView make_view(const PinholeIntrinsics& k, const RenderRequest& request, bool filled) {
@@ -348,7 +348,7 @@ RenderedView make_view(const PinholeIntrinsics& k, const RenderRequest& request,
   view.rgb =
       filled || !request.colour ? ImageU8(k.width, k.height, 3, 0) : ImageU8::uninitialised(k.width, k.height, 3);
   view.incidence_cos = image(ImageF32{}, 1, 0.f);
-  view.triangle_id = image(ImageI32{}, 1, -1);
+  if (request.triangle_ids) view.triangle_id = image(ImageI32{}, 1, -1);
   if (request.normals) view.normal_cam = image(ImageF32{}, 3, 0.f);
   return view;
 }
@@ -725,6 +725,10 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
     throw Error(
         "Renderer::render_rows: normals requested, but `out` has no normal image of the view's size "
         "(allocate it with allocate(intrinsics, request))");
+  if (request.triangle_ids && (out.triangle_id.width != k.width || out.triangle_id.height != k.height))
+    throw Error(
+        "Renderer::render_rows: triangle ids requested, but `out` has no triangle id image of the view's size "
+        "(allocate it with allocate(intrinsics, request))");
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   // Primary camera rays are coherent: packets of neighbouring pixels are Embree's fast path
@@ -803,7 +807,7 @@ void Renderer::render_rows(const Rigid3d& world_from_cam, const PinholeIntrinsic
     std::memcpy(out.incidence_cos.row(y), row.incidence.data(), sizeof(float) * width);
     // A miss's triangle is RTC_INVALID_GEOMETRY_ID, all ones: -1 as an int32, as the image has it.
     static_assert(RTC_INVALID_GEOMETRY_ID == 0xFFFFFFFFu, "misses must read as triangle id -1");
-    std::memcpy(out.triangle_id.row(y), row.triangle.data(), sizeof(std::int32_t) * width);
+    if (request.triangle_ids) std::memcpy(out.triangle_id.row(y), row.triangle.data(), sizeof(std::int32_t) * width);
     if (request.normals) {
       // The side the ray arrives from: a one-sided mesh seen from behind still gets a normal
       // that faces the camera, as the shading does (row_geometry turned it).
@@ -890,7 +894,7 @@ RenderedView Renderer::render_per_pixel(const Rigid3d& world_from_cam, const Pin
         const float t = packet.ray.tfar[lane];
         const Eigen::Vector3f direction(packet.ray.dir_x[lane], packet.ray.dir_y[lane], packet.ray.dir_z[lane]);
         out.depth.at(x, y) = t;
-        out.triangle_id.at(x, y) = static_cast<int>(triangle);
+        if (request.triangle_ids) out.triangle_id.at(x, y) = static_cast<int>(triangle);
         const Eigen::Vector3f& normal = impl_->triangle_normals[triangle];
         const float ray_length = direction.norm();
         const float cos_incidence = std::abs(normal.dot(direction)) / ray_length;

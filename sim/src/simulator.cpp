@@ -210,9 +210,9 @@ std::string Simulator::rig_truth_json() const {
   return j.dump(2) + "\n";
 }
 
-SimulatedFrame Simulator::render_frame(const FrameTime& frame) const { return render_frame(frame, nullptr); }
+SimulatedFrame Simulator::render_frame(const FrameTime& frame) const { return render_frame(frame, nullptr, false); }
 
-SimulatedFrame Simulator::render_frame(const FrameTime& frame, StageClocks* clocks) const {
+SimulatedFrame Simulator::render_frame(const FrameTime& frame, StageClocks* clocks, bool written_only) const {
   SimulatedFrame out;
   out.sensor = frame.sensor;
   out.index = frame.index;
@@ -220,21 +220,24 @@ SimulatedFrame Simulator::render_frame(const FrameTime& frame, StageClocks* cloc
   out.world_from_cam = world_from_cam(frame.sensor, frame.timestamp);
   RenderRequest request;
   request.normals = options_.output.normals;
+  request.triangle_ids = !written_only || options_.output.ids;
   RenderedView view =
       renderer_.render(out.world_from_cam, rig_.intrinsics, request, clocks ? &clocks->render : nullptr);
 
   std::optional<ScopedClock> clock(std::in_place, clocks ? &clocks->depth_noise : nullptr);
   // Noiseless ground-truth depth: the exact z, limited to the sensor's range.
   // Rows in parallel: a serial pass here was 4% of a frame's time.
-  out.clean_depth = ImageF32::uninitialised(view.depth.width, view.depth.height, 1);  // every pixel written below
-  tbb::parallel_for(tbb::blocked_range<int>(0, view.depth.height, 16), [&](const tbb::blocked_range<int>& rows) {
-    const std::size_t begin = std::size_t(rows.begin()) * view.depth.width;
-    const std::size_t end = std::size_t(rows.end()) * view.depth.width;
-    for (std::size_t i = begin; i < end; ++i) {
-      const float z = view.depth.data[i];
-      out.clean_depth.data[i] = z < options_.noise.min_depth_m || z > options_.noise.max_depth_m ? 0.f : z;
-    }
-  });
+  if (!written_only || options_.output.clean_depth) {
+    out.clean_depth = ImageF32::uninitialised(view.depth.width, view.depth.height, 1);  // every pixel written below
+    tbb::parallel_for(tbb::blocked_range<int>(0, view.depth.height, 16), [&](const tbb::blocked_range<int>& rows) {
+      const std::size_t begin = std::size_t(rows.begin()) * view.depth.width;
+      const std::size_t end = std::size_t(rows.end()) * view.depth.width;
+      for (std::size_t i = begin; i < end; ++i) {
+        const float z = view.depth.data[i];
+        out.clean_depth.data[i] = z < options_.noise.min_depth_m || z > options_.noise.max_depth_m ? 0.f : z;
+      }
+    });
+  }
 
   DepthNoiseInput input;
   input.clean_depth = &view.depth;
@@ -298,6 +301,7 @@ double Simulator::probe_depth_coverage() const {
       // colour steps that render_frame would spend on a frame that is never written.
       RenderRequest depth_only;
       depth_only.colour = false;
+      depth_only.triangle_ids = false;
       const RenderedView view =
           renderer_.render(world_from_cam(probes[k].sensor, probes[k].timestamp), rig_.intrinsics, depth_only);
       for (float z : view.depth.data)
@@ -373,7 +377,7 @@ std::size_t Simulator::write_scan(const std::filesystem::path& scan_dir, bool ov
                 tbb::filter_mode::parallel,
                 [&](std::shared_ptr<EncodedFrame> encoded) {
                   const FrameTime& frame = *encoded->frame;
-                  const SimulatedFrame simulated = render_frame(frame, &clocks);
+                  const SimulatedFrame simulated = render_frame(frame, &clocks, /*written_only=*/true);
                   encoded->world_from_cam = simulated.world_from_cam;
                   {
                     ScopedClock clock(&clocks.encode);

@@ -18,17 +18,19 @@ struct RenderedView {
   ImageF32 depth;          // z along the optical axis in metres; 0 where the ray hits nothing
   ImageU8 rgb;             // shaded colour
   ImageF32 incidence_cos;  // |cos(angle between ray and surface normal)|
-  ImageI32 triangle_id;    // index into the scene mesh's triangles; -1 where nothing is hit
+  ImageI32 triangle_id;    // index into the scene mesh's triangles; -1 where nothing is hit (empty
+                           // without RenderRequest::triangle_ids)
   // Only with RenderRequest::normals (empty otherwise): the hit triangle's geometric unit normal in
   // the camera frame (cam_from_world rotation of the world normal), turned to face the camera (its
   // dot product with the pixel's ray is negative); 3 channels x, y, z; 0 where nothing is hit.
   ImageF32 normal_cam;
 };
 
-// What a pinhole render produces beyond depth, colour, incidence and triangle ids (always made).
+// What a pinhole render produces beyond depth and incidence (always made).
 struct RenderRequest {
   bool normals = false;  // normal_cam: off by default, so views that do not need it skip the per-pixel cost
   bool colour = true;    // rgb: false leaves it black and skips the texture and lighting (depth-only views)
+  bool triangle_ids = true;  // triangle_id: false leaves it empty (the simulator writes ids only with --ids)
 };
 
 // Where render() / render_rows() spend their time, for the simulator's stage breakdown: thread

@@ -26,6 +26,8 @@ struct SimulatedFrame {
   Rigid3d world_from_cam = Rigid3d::Identity();  // ground truth
   ImageU8 rgb;
   ImageF32 depth;        // noisy (metres, 0 = invalid), before PNG quantisation
+  // The two below are made by render_frame; write_scan makes them only where it writes them
+  // (output.clean_depth, output.ids).
   ImageF32 clean_depth;  // noiseless z (range-limited), metres
   ImageI32 triangle_id;  // hit triangle of the noiseless ray, -1 = none (every hit, not range-limited)
   ImageF32 normal_cam;   // only with output.normals: RenderedView::normal_cam
@@ -89,7 +91,9 @@ class Simulator {
 
  private:
   struct StageClocks;  // simulator.cpp
-  SimulatedFrame render_frame(const FrameTime& frame, StageClocks* clocks) const;
+  // `written_only`: only what write_scan writes (no clean depth or triangle ids unless the output
+  // options ask for them: a pass over 1.2 MB and a 1.2 MB copy per 640x480 frame each).
+  SimulatedFrame render_frame(const FrameTime& frame, StageClocks* clocks, bool written_only) const;
 
   const Scene& scene_;
   ScanPosition position_;
