@@ -1,8 +1,7 @@
-// The PNG writer's level-1 deflates (core/src/deflate_runs.h), literals and runs for colour and
-// literals and repeats of nearby pixels for 16-bit depth: every stream they write inflates to its
-// input with libdeflate's decoder (the Adler-32 checked too), on inputs that take each of their
-// paths; their Huffman codes are complete and within their length limits; and PNGs of them are read
-// by libpng (through OpenCV).
+// The PNG writer's level-1 deflate (literals and runs, core/src/deflate_runs.h): every stream it
+// writes inflates to its input with libdeflate's decoder (the Adler-32 checked too), on inputs that
+// take each of its paths; its Huffman codes are complete and within their length limits; and PNGs
+// of it are read by libpng (through OpenCV).
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -145,102 +144,6 @@ TEST(DeflateRuns, ColourPngsOfTheFastestLevelReadByLibpng) {
     for (int x = 0; x < 640; ++x)
       for (int c = 0; c < 3; ++c)
         ASSERT_EQ(back.ptr<std::uint8_t>(y)[3 * x + (2 - c)], rgb.row(y)[3 * x + c]) << x << "," << y;
-}
-
-// The rows of a 16-bit greyscale PNG before compression: a filter byte (0) and the samples big-endian.
-std::vector<std::uint8_t> png_rows16(const std::vector<std::uint16_t>& samples, std::size_t width) {
-  std::vector<std::uint8_t> rows;
-  for (std::size_t i = 0; i < samples.size(); ++i) {
-    if (i % width == 0) rows.push_back(0);
-    rows.push_back(std::uint8_t(samples[i] >> 8));
-    rows.push_back(std::uint8_t(samples[i]));
-  }
-  return rows;
-}
-
-std::vector<std::uint8_t> compress_repeats(const std::vector<std::uint8_t>& rows, std::size_t height,
-                                           std::size_t width) {
-  std::vector<std::uint8_t> out(detail::zlib_runs_bound(rows.size()));
-  out.resize(detail::zlib_compress_repeats16(rows.data(), height, width, out.data()));
-  return out;
-}
-
-// Round trip of `samples` as `height` rows; returns the stream's size.
-std::size_t expect_repeats_round_trip(const std::vector<std::uint16_t>& samples, std::size_t width,
-                                      const std::string& what) {
-  const std::size_t height = width ? samples.size() / width : 0;
-  const std::vector<std::uint8_t> rows = png_rows16(samples, width);
-  const std::vector<std::uint8_t> stream = compress_repeats(rows, height, width);
-  EXPECT_LE(stream.size(), detail::zlib_runs_bound(rows.size())) << what;
-  const std::vector<std::uint8_t> back = inflate(stream, rows.size());
-  EXPECT_EQ(back.size(), rows.size()) << what << ": did not inflate to its input";
-  EXPECT_TRUE(back == rows) << what;
-  EXPECT_EQ(compress_repeats(rows, height, width), stream) << what << ": not the same bytes a second time";
-  return stream.size();
-}
-
-TEST(DeflateRepeats16, EveryStreamInflatesToItsInput) {
-  std::mt19937 rng(11);
-  expect_repeats_round_trip({}, 0, "no rows");
-  expect_repeats_round_trip({}, 5, "no rows of width 5");
-  expect_repeats_round_trip({7}, 1, "one pixel");
-  // Quantised depth: a few values per region, mixed at random (the simulator's Handa noise), holes of
-  // zeros, at widths around the 16-pixel window.
-  for (std::size_t width : {1u, 2u, 3u, 15u, 16u, 17u, 33u, 640u}) {
-    std::vector<std::uint16_t> depth(width * 40);
-    for (std::size_t i = 0; i < depth.size(); ++i) {
-      const std::size_t x = i % width, y = i / width;
-      depth[i] = (x / 50 + y / 7) % 5 == 0 ? 0 : std::uint16_t(9000 + 60 * ((x / 23) % 4) + 60 * (rng() % 3));
-    }
-    expect_repeats_round_trip(depth, width, "quantised depth, width " + std::to_string(width));
-  }
-  // Random samples: no repeats, stored blocks where the Huffman codes do not pay.
-  std::vector<std::uint16_t> noise(200000);
-  for (auto& v : noise) v = std::uint16_t(rng());
-  const std::size_t noise_size = expect_repeats_round_trip(noise, 1000, "random samples");
-  // Stored: at most five bytes of header per block of rows (>= 32768 tokens) and the zlib frame.
-  const std::size_t raw_size = 2 * noise.size() + 200;
-  EXPECT_LE(noise_size, raw_size + 5 * (raw_size / 32768 + 2) + 16)
-      << "random samples grew more than the stored blocks' headers";
-  // Runs longer than the longest match (129 pixels), every candidate distance (a row repeating with
-  // period 1 ... 16 pixels), rows equal to the row above with no repeat within them.
-  for (int period = 1; period <= 16; ++period) {
-    std::vector<std::uint16_t> periodic(640 * 8);
-    for (std::size_t i = 0; i < periodic.size(); ++i)
-      periodic[i] = std::uint16_t(1000 + 7 * ((i % 640) % period) + (i / 640));
-    const std::size_t size = expect_repeats_round_trip(periodic, 640, "period " + std::to_string(period));
-    EXPECT_LT(size, 2 * periodic.size() / 20) << "period " << period << ": not coded as repeats";
-  }
-  std::vector<std::uint16_t> above(640 * 30);
-  std::vector<std::uint16_t> first_row(640);
-  for (auto& v : first_row) v = std::uint16_t(rng());
-  for (std::size_t i = 0; i < above.size(); ++i) above[i] = first_row[i % 640];
-  const std::size_t above_size = expect_repeats_round_trip(above, 640, "rows equal to the row above");
-  EXPECT_LT(above_size, 2 * 640 + 2 * above.size() / 50) << "rows not coded as repeats of the row above";
-  // Rows wider than the deflate window's reach (2 * 16384 + 1 bytes): the row above is not used.
-  std::vector<std::uint16_t> wide(17000 * 3);
-  for (std::size_t i = 0; i < wide.size(); ++i) wide[i] = std::uint16_t(i % 17000 < 300 ? 5 : rng() % 4);
-  expect_repeats_round_trip(wide, 17000, "rows wider than the window");
-  // Enough rows for several blocks of tokens, the last one short.
-  std::vector<std::uint16_t> many(640 * 300);
-  for (auto& v : many) v = std::uint16_t(rng() % 3);
-  expect_repeats_round_trip(many, 640, "several blocks");
-}
-
-// A depth frame like the simulator's, read back by libpng: smaller than a quarter of its raw size.
-TEST(DeflateRepeats16, DepthPngsOfTheFastestLevelReadByLibpng) {
-  std::mt19937 rng(5);
-  ImageU16 depth(640, 480, 1);
-  for (int y = 0; y < 480; ++y)
-    for (int x = 0; x < 640; ++x)
-      depth.row(y)[x] = x < 20 ? 0 : std::uint16_t(10000 + 40 * (x / 64) + 40 * (rng() % 2));
-  const std::string png = encode_png16(depth, 1);
-  EXPECT_LT(png.size(), depth.data.size() * 2 / 4);
-  const cv::Mat back =
-      cv::imdecode(cv::Mat(1, int(png.size()), CV_8UC1, const_cast<char*>(png.data())), cv::IMREAD_UNCHANGED);
-  ASSERT_EQ(back.type(), CV_16UC1);
-  for (int y = 0; y < 480; ++y)
-    for (int x = 0; x < 640; ++x) ASSERT_EQ(back.ptr<std::uint16_t>(y)[x], depth.row(y)[x]) << x << "," << y;
 }
 
 }  // namespace

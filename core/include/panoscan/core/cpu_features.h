@@ -46,12 +46,6 @@ inline bool has_avx512dq() {
       __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") && isa_cap() >= Isa::kAvx512;
   return has;
 }
-// AVX-512 BW and VL (16-bit lanes, masks from compares on 256-bit registers).
-inline bool has_avx512bw() {
-  static const bool has =
-      __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl") && isa_cap() >= Isa::kAvx512;
-  return has;
-}
 // BMI2 (pdep, pext): every AVX-512 CPU so far has it, but it is a separate flag. Capped with AVX2,
 // which came with it (Haswell).
 inline bool has_bmi2() {
@@ -62,7 +56,6 @@ inline bool has_bmi2() {
 inline bool has_avx() { return false; }
 inline bool has_avx2() { return false; }
 inline bool has_avx512dq() { return false; }
-inline bool has_avx512bw() { return false; }
 inline bool has_bmi2() { return false; }
 #endif
 
