@@ -144,6 +144,9 @@ TrackingOptions tracking_options_from_config(Config& config) {
   o.solver_threads = config.get_int("track.solver_threads", o.solver_threads, 0, 1024);
   FrontendOptions& f = o.frontend;
   f.orb_features = config.get_int("frontend.orb_features", f.orb_features, 50, 20000);
+  f.orb_levels = config.get_int("frontend.orb_levels", f.orb_levels, 0, 16);
+  f.orb_scale_factor = config.get_double("frontend.orb_scale_factor", f.orb_scale_factor, 1.01, 2.0);
+  f.orb_fast_threshold = config.get_int("frontend.orb_fast_threshold", f.orb_fast_threshold, 1, 255);
   f.same_camera_window = config.get_int("frontend.same_camera_window", f.same_camera_window, 1, 100);
   f.guided_matching = config.get_bool("frontend.guided_matching", f.guided_matching);
   f.guide_keypoints = config.get_int("frontend.guide_keypoints", f.guide_keypoints, 3, 100000);
@@ -266,6 +269,7 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   stats.linear_solver = options.linear_solver;
   stats.frontend_seconds = frontend.total_seconds;
   stats.feature_ms_per_frame = frontend.feature_ms_per_frame;
+  stats.orb_levels = frontend.orb_levels;
   stats.matching_ms_per_frame = frontend.matching_ms_per_frame;
   stats.same_camera_pairs = frontend.same_camera_pairs;
   stats.cross_camera_pairs = frontend.cross_camera_pairs;
@@ -359,10 +363,14 @@ nlohmann::json stats_to_json(const TrackingStats& s) {
       {"observations", s.observations},
       {"frames_without_observations", s.frames_without_observations},
       {"frames_without_features", s.frames_without_features},
-      {"pairs", {{"same_camera", s.same_camera_pairs}, {"cross_camera", s.cross_camera_pairs}, {"loop", s.loop_pairs},
-                 {"rejected_loop", s.rejected_loop_pairs},
-                 {"rejected_far", s.rejected_far_pairs}, {"guided", s.guided_pairs},
-                 {"guided_fallback", s.guided_fallbacks}}},
+      {"pairs",
+       {{"same_camera", s.same_camera_pairs},
+        {"cross_camera", s.cross_camera_pairs},
+        {"loop", s.loop_pairs},
+        {"rejected_loop", s.rejected_loop_pairs},
+        {"rejected_far", s.rejected_far_pairs},
+        {"guided", s.guided_pairs},
+        {"guided_fallback", s.guided_fallbacks}}},
       {"cross_camera_funnel",
        {{"candidates", s.cross_camera.candidates},
         {"with_band_keypoints", s.cross_camera.with_band_keypoints},
@@ -414,7 +422,8 @@ nlohmann::json stats_to_json(const TrackingStats& s) {
         {"solve", s.solve_seconds},
         {"linear_solver", s.linear_solver_seconds},
         {"jacobians", s.jacobian_seconds}}},
-      {"frontend_ms_per_frame", {{"features", s.feature_ms_per_frame}, {"matching", s.matching_ms_per_frame}}}};
+      {"frontend_ms_per_frame", {{"features", s.feature_ms_per_frame}, {"matching", s.matching_ms_per_frame}}},
+      {"orb_levels", s.orb_levels}};
   return j;
 }
 
