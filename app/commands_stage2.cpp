@@ -229,6 +229,8 @@ void run_recon_register(const ReconRegisterArguments& a) {
     const Rigid3d between = r.alternative_target_from_source.inverse() * r.target_from_source;
     j["alternative"] = {{"orb_inliers", r.guess.alternative_inliers},
                         {"guided_matches", r.guess.alternative_guided_matches},
+                        {"evidence", r.guess.alternative_evidence()},
+                        {"dismissed", r.alternative_dismissed},
                         {"target_from_source", pose_to_json(r.alternative_target_from_source)},
                         {"overlap", r.alternative_overlap},
                         {"consistent_matches", r.alternative_consistent_matches},

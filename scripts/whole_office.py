@@ -5,12 +5,14 @@ evaluated against the ground-truth mesh, at the tables' full size (640x480 camer
 panoramas at H = 1024; `panoscan tables` calls it "full").
 
   /usr/bin/python3 scripts/whole_office.py [--build build] [--out DIR] [--threads 0] [--noise handa]
-                                           [--every 16] [--height 1024] [--keep]
+                                           [--every 16] [--height 1024] [--seed 1] [--keep]
+                                           [--set KEY=VALUE ...]
 
 Writes DIR/whole_office.json and DIR/whole_office.md: wall-clock seconds of every stage (the simulator's
 per position; tracking, panoramas, registration, pose graph and integration from `recon scene`'s
 timings.json; the evaluation), the total, and the cloud's RMSE so that a faster run can be checked to be
-as accurate. Scans and clouds are written under DIR/work and removed afterwards unless --keep.
+as accurate. Scans and clouds are written under DIR/work and removed afterwards unless --keep. Each
+--set is passed to `recon scene` (e.g. --set frontend.orb_levels=3) and recorded in the settings.
 """
 
 import argparse
@@ -47,6 +49,8 @@ def main():
     parser.add_argument("--height", type=int, default=1024)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--keep", action="store_true")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="a config key for recon scene (repeatable)")
     args = parser.parse_args()
 
     panoscan = os.path.join(args.build, "app", "panoscan")
@@ -69,7 +73,8 @@ def main():
         scene = os.path.join(work, "scene")
         seconds = run([panoscan, "recon", "scene", "--scans"] + scans +
                       ["--out", scene, "--align-to-ground-truth", "--set", f"panorama.height={args.height}",
-                       "--set", f"seed={args.seed}"] + threads, log)
+                       "--set", f"seed={args.seed}"] + [a for kv in args.set for a in ("--set", kv)] + threads,
+                      log)
         with open(os.path.join(scene, "timings.json")) as f:
             timings = json.load(f)
         parts = [("tracking", "tracking_s"), ("panoramas (warp + TSA-L1)", "panorama_s"),
@@ -95,7 +100,7 @@ def main():
         "command": " ".join([sys.executable] + sys.argv),
         "settings": {"positions": POSITIONS, "width": 640, "height": 480, "every": args.every,
                      "panorama_height": args.height, "noise": args.noise, "seed": args.seed,
-                     "threads": args.threads},
+                     "threads": args.threads, "recon_scene_settings": args.set},
         "stages": stages,
         "total_s": total,
         "evaluation": evaluation,
@@ -108,7 +113,8 @@ def main():
     lines = [f"# The whole office end to end, {record['date']}", "",
              f"Machine: {record['machine']}. Built from: {version}. Command: `{record['command']}`.", "",
              f"Four positions ({', '.join(POSITIONS)}), 640x480, every {args.every}th frame, panoramas at "
-             f"H = {args.height}, {args.noise} noise, seed {args.seed}.", "",
+             f"H = {args.height}, {args.noise} noise, seed {args.seed}" +
+             (f"; recon scene with {', '.join(args.set)}." if args.set else "."), "",
              "| stage | seconds | share |", "|---|---:|---:|"]
     for s in stages:
         lines.append(f"| {s['stage']} | {s['seconds']:.1f} | {100 * s['seconds'] / total:.0f}% |")

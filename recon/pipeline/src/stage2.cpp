@@ -130,6 +130,20 @@ PreparedPanorama prepare_panorama_for_registration(const Panorama& panorama, con
   return prepared;
 }
 
+RunnerUpVerdict judge_runner_up(double best_overlap, int best_evidence, double runner_up_overlap,
+                                int runner_up_evidence, const PairRegistrationOptions& options) {
+  // The runner-up fits the geometry clearly better: ORB's majority was the wrong one.
+  if (runner_up_overlap > best_overlap + options.ambiguity_margin) return RunnerUpVerdict::kTakeRunnerUp;
+  if (runner_up_overlap < best_overlap - options.ambiguity_margin) return RunnerUpVerdict::kKeepBest;
+  // The geometry cannot choose. The appearance can when it is one-sided and agrees with the
+  // geometry's (slight) preference: a runner-up found among the matches the best leaves unexplained,
+  // with a few percent of its evidence, is chance consistency, not a mirror image.
+  if (runner_up_overlap <= best_overlap &&
+      double(runner_up_evidence) < options.ambiguity_evidence_fraction * double(best_evidence))
+    return RunnerUpVerdict::kDismissed;
+  return RunnerUpVerdict::kAmbiguous;
+}
+
 PairRegistration register_panorama_pair(const Panorama& source, const Panorama& target,
                                         const PairRegistrationOptions& options, const Rigid3d* given_initial,
                                         const std::string& source_name, const std::string& target_name) {
@@ -194,33 +208,47 @@ PairRegistration register_panorama_pair(const PreparedPanorama& source, const Pr
     } catch (const Error&) {
       // The runner-up does not converge (too little overlap at it): no alternative.
     }
-    if (result.alternative_refined) {
+    if (result.alternative_refined &&
+        !same_registration_basin(result.alternative_target_from_source, result.target_from_source)) {
+      // (Within the loop-closure tolerances of placement.h the two are one basin: no ambiguity.)
       const Rigid3d between = result.alternative_target_from_source.inverse() * result.target_from_source;
       const double rotation_deg = rad2deg(rotation_angle(between.linear()));
       const double translation_m = between.translation().norm();
-      // The same basin (within the loop-closure tolerances of placement.h): no ambiguity.
-      const bool distinct = !same_registration_basin(result.alternative_target_from_source, result.target_from_source);
-      if (distinct && result.alternative_overlap > result.overlap + options.ambiguity_margin) {
-        // The runner-up fits the geometry clearly better: ORB's majority was the wrong one.
-        log_warn(fmt::format("{}: the runner-up ORB hypothesis ({} matches) fits better after ICP (overlap {:.3f} "
-                             "against {:.3f}); taking it",
-                             pair, result.guess.alternative_inliers, result.alternative_overlap, result.overlap));
-        std::swap(result.target_from_source, result.alternative_target_from_source);
-        std::swap(result.overlap, result.alternative_overlap);
-        std::swap(result.icp, alternative);
-        result.alternative_consistent_matches = count_consistent_matches(
-            result.guess, result.alternative_target_from_source, options.consistency_threshold_m);
-        std::swap(result.guess.target_from_source, result.guess.alternative_target_from_source);
-        std::swap(result.guess.inliers, result.guess.alternative_inliers);
-        std::swap(result.guess.guided_matches, result.guess.alternative_guided_matches);
-      } else if (distinct && result.alternative_overlap >= result.overlap - options.ambiguity_margin) {
-        throw make_error(
-            pair, "registration",
-            fmt::format("ambiguous: two poses {:.1f} deg and {:.2f} m apart fit about equally (overlap {:.3f} with {} "
-                        "ORB matches, {:.3f} with {}; registration.ambiguity_margin {:.2f}) - a symmetric or "
-                        "repeating room? Give an initial pose (recon register --initial)",
-                        rotation_deg, translation_m, result.overlap, result.guess.inliers,
-                        result.alternative_overlap, result.guess.alternative_inliers, options.ambiguity_margin));
+      const int evidence = result.guess.evidence(), alternative_evidence = result.guess.alternative_evidence();
+      switch (judge_runner_up(result.overlap, evidence, result.alternative_overlap, alternative_evidence, options)) {
+        case RunnerUpVerdict::kKeepBest: break;
+        case RunnerUpVerdict::kTakeRunnerUp:
+          log_warn(
+              fmt::format("{}: the runner-up ORB hypothesis ({} matches) fits better after ICP (overlap {:.3f} "
+                          "against {:.3f}); taking it",
+                          pair, result.guess.alternative_inliers, result.alternative_overlap, result.overlap));
+          std::swap(result.target_from_source, result.alternative_target_from_source);
+          std::swap(result.overlap, result.alternative_overlap);
+          std::swap(result.icp, alternative);
+          result.alternative_consistent_matches = count_consistent_matches(
+              result.guess, result.alternative_target_from_source, options.consistency_threshold_m);
+          std::swap(result.guess.target_from_source, result.guess.alternative_target_from_source);
+          std::swap(result.guess.inliers, result.guess.alternative_inliers);
+          std::swap(result.guess.guided_matches, result.guess.alternative_guided_matches);
+          break;
+        case RunnerUpVerdict::kDismissed:
+          result.alternative_dismissed = true;
+          log_info(
+              fmt::format("{}: a runner-up {:.1f} deg and {:.2f} m away fits about as well (overlap {:.3f} "
+                          "against {:.3f}) but holds {} of the best's {} feature evidence (below "
+                          "registration.ambiguity_evidence_fraction {:.2f}): kept the best",
+                          pair, rotation_deg, translation_m, result.alternative_overlap, result.overlap,
+                          alternative_evidence, evidence, options.ambiguity_evidence_fraction));
+          break;
+        case RunnerUpVerdict::kAmbiguous:
+          throw make_error(
+              pair, "registration",
+              fmt::format("ambiguous: two poses {:.1f} deg and {:.2f} m apart fit about equally (overlap {:.3f} with "
+                          "feature evidence {}, {:.3f} with {}; registration.ambiguity_margin {:.2f}, "
+                          "ambiguity_evidence_fraction {:.2f}) - a symmetric or repeating room? Give an initial "
+                          "pose (recon register --initial)",
+                          rotation_deg, translation_m, result.overlap, evidence, result.alternative_overlap,
+                          alternative_evidence, options.ambiguity_margin, options.ambiguity_evidence_fraction));
       }
     }
   }
@@ -282,6 +310,8 @@ PairRegistrationOptions pair_registration_options_from_config(Config& config) {
   icp.coarse_levels = config.get_int("registration.coarse_levels", icp.coarse_levels, 0, 8);
   options.min_fitness = config.get_double("registration.min_fitness", options.min_fitness, 0.0, 1.0);
   options.ambiguity_margin = config.get_double("registration.ambiguity_margin", options.ambiguity_margin, 0.0, 1.0);
+  options.ambiguity_evidence_fraction =
+      config.get_double("registration.ambiguity_evidence_fraction", options.ambiguity_evidence_fraction, 0.0, 1.0);
   icp.threads = config.get_int("threads", 0, 0, 1024);
   PanoramaCloudOptions& cloud = options.cloud;
   // "Def." (Table 4) means the general noise model in place of the measured variance.

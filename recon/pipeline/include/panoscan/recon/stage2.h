@@ -73,6 +73,15 @@ struct PairRegistrationOptions {
   // scans), while a spurious runner-up in an asymmetric room lies far below (living room SL-1 -> SL-2:
   // 0.62 against 0.96).
   double ambiguity_margin = 0.15;
+  // Within the margin the geometry cannot choose; the appearance can when it is one-sided. A runner-up
+  // whose feature evidence (RANSAC inliers + guided matches) is below this fraction of the best's, while
+  // the best also overlaps at least as well, is dismissed rather than called a rival: both cues agree.
+  // A symmetric room's rivals share the evidence (the office's mirror pairs: 0.33 of the best's on
+  // noiseless renders at H = 512, 0.62-0.82 on simulated scans at H = 1024); a chance runner-up from the
+  // matches the best leaves unexplained holds 0.05-0.08, and made the whole office's chain refuse on some
+  // seeds (recon/registration/README.md, "Ambiguity"). 0.15 lies between, about equally far from both
+  // in ratio. registration.ambiguity_evidence_fraction; 0: never dismiss.
+  double ambiguity_evidence_fraction = 0.15;
 };
 
 // The ORB + RANSAC guess between the two colour panoramas (§5.1), as register_panorama_pair makes it.
@@ -91,7 +100,20 @@ struct PairRegistration {
   Rigid3d alternative_target_from_source = Rigid3d::Identity();
   double alternative_overlap = 0.0;
   int alternative_consistent_matches = 0;
+  // The refined runner-up fit about as well as the result but held too little of the feature evidence
+  // to be a rival (PairRegistrationOptions::ambiguity_evidence_fraction): the result was kept.
+  bool alternative_dismissed = false;
 };
+
+// What the ambiguity check (PairRegistrationOptions::ambiguity_margin, ambiguity_evidence_fraction)
+// makes of a refined runner-up distinct from the best pose, from the two overlaps and feature
+// evidences: keep the best (the runner-up overlaps clearly less), take the runner-up (clearly more),
+// keep the best with the runner-up dismissed (about as much, but the best overlaps at least as well
+// and the runner-up holds less than ambiguity_evidence_fraction of the best's evidence), or refuse as
+// ambiguous (about as much otherwise).
+enum class RunnerUpVerdict { kKeepBest, kTakeRunnerUp, kDismissed, kAmbiguous };
+RunnerUpVerdict judge_runner_up(double best_overlap, int best_evidence, double runner_up_overlap,
+                                int runner_up_evidence, const PairRegistrationOptions& options);
 
 // The fraction of source points whose nearest target point (within max_correspondence_m, after
 // target_from_source) has its tangent plane within max_plane_distance_m. Needs target normals.
