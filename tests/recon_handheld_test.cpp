@@ -110,6 +110,7 @@ TEST_F(HandheldTest, BaOnlyAndSingleCameraTrackWithoutRotatorAssumptions) {
     EXPECT_TRUE(result.verdict.reliable) << result.verdict.first_failure();
     EXPECT_LT(ate, 0.015) << to_string(mode);  // measured 7.7 mm (seed 5; seed 6: 7.9 mm)
     EXPECT_EQ(result.stats.loop_pairs, 0);     // no end-of-turn loop closure on a walk
+    EXPECT_EQ(result.stats.orb_levels, kHandheldOrbLevels);  // scale changes on a walk: ORB-SLAM2's 8 levels
     for (const TrackingCheck& check : result.verdict.checks) {
       EXPECT_NE(check.name, "turn");
       EXPECT_NE(check.name, "monotone");

@@ -27,7 +27,7 @@ void FrontendOptions::check(const std::string& origin) const {
   };
   require(orb_features >= 50 && orb_features <= 20000, "orb_features", "must be in [50, 20000]");
   require(orb_scale_factor > 1.0 && orb_scale_factor <= 2.0, "orb_scale_factor", "must be in (1, 2]");
-  require(orb_levels >= 1 && orb_levels <= 16, "orb_levels", "must be in [1, 16]");
+  require(orb_levels >= 0 && orb_levels <= 16, "orb_levels", "must be in [0, 16] (0 = by the scan's motion)");
   require(max_hamming > 0 && max_hamming <= 256, "max_hamming", "must be in [1, 256]");
   require(ratio > 0.0 && ratio <= 1.0, "ratio", "must be in (0, 1]");
   require(same_camera_window >= 1, "same_camera_window", "must be >= 1");
@@ -641,8 +641,15 @@ std::vector<PairOutcome> match_across_cameras(const ScanIndex& scan, const Front
 
 }  // namespace
 
-FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& options) {
-  options.check();
+int orb_levels_for(const FrontendOptions& options, RigMotion motion) {
+  if (options.orb_levels > 0) return options.orb_levels;
+  return motion == RigMotion::kHandheld ? kHandheldOrbLevels : kRotatorOrbLevels;
+}
+
+FrontendResult run_frontend(const ScanIndex& scan, const FrontendOptions& requested) {
+  requested.check();
+  FrontendOptions options = requested;
+  options.orb_levels = orb_levels_for(requested, scan.rig.motion);
   const auto start = std::chrono::steady_clock::now();
   std::unique_ptr<tbb::global_control> limit;
   if (options.threads > 0)

@@ -144,7 +144,7 @@ TrackingOptions tracking_options_from_config(Config& config) {
   o.solver_threads = config.get_int("track.solver_threads", o.solver_threads, 0, 1024);
   FrontendOptions& f = o.frontend;
   f.orb_features = config.get_int("frontend.orb_features", f.orb_features, 50, 20000);
-  f.orb_levels = config.get_int("frontend.orb_levels", f.orb_levels, 1, 16);
+  f.orb_levels = config.get_int("frontend.orb_levels", f.orb_levels, 0, 16);
   f.orb_scale_factor = config.get_double("frontend.orb_scale_factor", f.orb_scale_factor, 1.01, 2.0);
   f.orb_fast_threshold = config.get_int("frontend.orb_fast_threshold", f.orb_fast_threshold, 1, 255);
   f.same_camera_window = config.get_int("frontend.same_camera_window", f.same_camera_window, 1, 100);

@@ -203,7 +203,7 @@ struct TrackingStats {
   std::string linear_solver;
   int threads = 1;
   double frontend_seconds = 0, feature_ms_per_frame = 0, matching_ms_per_frame = 0;
-  int orb_levels = 0;  // the ORB pyramid levels the front end used (frontend.orb_levels)
+  int orb_levels = 0;  // the ORB pyramid levels the front end used (orb_levels_for)
   double init_seconds = 0, solve_seconds = 0;
   double linear_solver_seconds = 0, jacobian_seconds = 0;  // parts of solve_seconds (Ceres' summary)
   int same_camera_pairs = 0, cross_camera_pairs = 0, loop_pairs = 0, frames_without_features = 0;
