@@ -342,6 +342,8 @@ void run_recon_scene(const ReconSceneArguments& a) {
   for (const SceneScan& s : scans) names.push_back(s.name);
   write_file_atomic(output.temp_path() / "placement.json",
                     placement_to_json(names, result.registrations, result.placement).dump(2) + "\n");
+  write_file_atomic(output.temp_path() / "registrations.json",
+                    scene_registrations_to_json(names, result).dump(2) + "\n");
   // Where the time went (scripts/whole_office.py reads it): wall-clock seconds per stage.
   const nlohmann::json timings = {
       {"tracking_s", result.seconds_tracking},

@@ -77,6 +77,8 @@ def main():
                       log)
         with open(os.path.join(scene, "timings.json")) as f:
             timings = json.load(f)
+        with open(os.path.join(scene, "registrations.json")) as f:
+            pairs = json.load(f)
         parts = [("tracking", "tracking_s"), ("panoramas (warp + TSA-L1)", "panorama_s"),
                  ("registration (ORB guess + GICP)", "registration_s"), ("pose graph", "pose_graph_s"),
                  ("integration (MAP)", "integration_s")]
@@ -104,6 +106,10 @@ def main():
         "stages": stages,
         "total_s": total,
         "evaluation": evaluation,
+        "registrations": {"kept": [f"{p['source']} -> {p['target']}" for p in pairs["kept"]],
+                          "runner_ups_dismissed": sum(1 for p in pairs["kept"]
+                                                      if p["runner_up"] and p["runner_up"]["dismissed"]),
+                          "skipped": pairs["skipped"]},
     }
     with open(os.path.join(args.out, "whole_office.json.tmp"), "w") as f:
         json.dump(record, f, indent=2)
@@ -123,6 +129,10 @@ def main():
     lines.append(f"Cloud RMSE against the mesh (accuracy): {rmse:.2f} mm, "
                  f"{evaluation['accuracy']['count']} points." if rmse is not None else
                  "Cloud RMSE: see whole_office.json (evaluation).")
+    regs = record["registrations"]
+    lines.append(f"Registrations: {len(regs['kept'])} kept ({regs['runner_ups_dismissed']} with a weak runner-up "
+                 f"dismissed), {len(regs['skipped'])} skipped" +
+                 "".join(f"\n- skipped: {reason}" for reason in regs["skipped"]))
     with open(os.path.join(args.out, "whole_office.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print("\n".join(lines))

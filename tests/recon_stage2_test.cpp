@@ -331,6 +331,22 @@ TEST(Stage2, PoseGraphOverFourOfficePositionsLowersTheWorstInconsistency) {
   auto at_room_scale = [](const EdgeDiscrepancy& d) { return d.translation_m + 3.0 * deg2rad(d.rotation_deg); };
   EXPECT_LT(at_room_scale(result.inconsistency_final), at_room_scale(result.inconsistency_chained));
   EXPECT_LT(worst_error_mm, 5.0);
+  // What recon scene writes as registrations.json: each kept pair with its evidence, overlap and
+  // runner-up verdict, and every skipped pair with its reason.
+  const nlohmann::json record = scene_registrations_to_json(names, result);
+  ASSERT_EQ(record.at("kept").size(), result.edges.size());
+  for (std::size_t k = 0; k < result.edges.size(); ++k) {
+    const nlohmann::json& pair = record["kept"][k];
+    const PairRegistration& r = result.edges[k].registration;
+    EXPECT_EQ(pair.at("source").get<std::string>(), names[std::size_t(result.edges[k].source)]);
+    EXPECT_EQ(pair.at("target").get<std::string>(), names[std::size_t(result.edges[k].target)]);
+    EXPECT_EQ(pair.at("orb").at("evidence").get<int>(), r.guess.evidence());
+    EXPECT_DOUBLE_EQ(pair.at("overlap").get<double>(), r.overlap);
+    EXPECT_EQ(pair.at("runner_up").is_null(), !r.alternative_refined);
+  }
+  ASSERT_EQ(record.at("skipped").size(), result.skipped_pairs.size());
+  ASSERT_FALSE(result.skipped_pairs.empty());  // the diagonal pairs
+  EXPECT_NE(record["skipped"][0].get<std::string>().find(" -> "), std::string::npos);
 }
 
 TEST(Stage2, AScanWhosePairWithTheScanBeforeIsRefusedIsPlacedByItsOtherPairs) {

@@ -1,10 +1,12 @@
 #include "panoscan/recon/scene.h"
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "panoscan/core/config.h"
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
+#include "panoscan/core/pose_json.h"
 #include "panoscan/core/timer.h"
 
 namespace panoscan {
@@ -116,6 +118,38 @@ SceneResult reconstruct_scene(const std::vector<SceneScan>& scans, const SceneOp
   result.integration = integrate_panoramas(points, options.integration);
   result.seconds_integration = seconds_since(start);
   return result;
+}
+
+nlohmann::json scene_registrations_to_json(const std::vector<std::string>& names, const SceneResult& result) {
+  nlohmann::json j;
+  j["format"] = "panoscan-scene-registrations";
+  j["version"] = 1;
+  j["kept"] = nlohmann::json::array();
+  for (const PairEdge& e : result.edges) {
+    const PairRegistration& r = e.registration;
+    nlohmann::json pair = {{"source", names.at(std::size_t(e.source))},
+                           {"target", names.at(std::size_t(e.target))},
+                           {"target_from_source", pose_to_json(r.target_from_source)},
+                           {"overlap", r.overlap},
+                           {"orb",
+                            {{"matches", r.guess.matches},
+                             {"inliers", r.guess.inliers},
+                             {"guided_matches", r.guess.guided_matches},
+                             {"evidence", r.guess.evidence()}}},
+                           {"consistent_matches", r.consistent_matches},
+                           {"runner_up", nullptr}};
+    if (r.alternative_refined) {
+      const Rigid3d between = r.alternative_target_from_source.inverse() * r.target_from_source;
+      pair["runner_up"] = {{"evidence", r.guess.alternative_evidence()},
+                           {"overlap", r.alternative_overlap},
+                           {"dismissed", r.alternative_dismissed},
+                           {"rotation_from_result_deg", rad2deg(rotation_angle(between.linear()))},
+                           {"translation_from_result_m", between.translation().norm()}};
+    }
+    j["kept"].push_back(std::move(pair));
+  }
+  j["skipped"] = result.skipped_pairs;
+  return j;
 }
 
 SceneOptions scene_options_from_config(Config& config) {

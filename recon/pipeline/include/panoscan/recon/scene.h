@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include "panoscan/recon/placement.h"
 #include "panoscan/recon/stage2.h"
 #include "panoscan/recon/tracking.h"
@@ -60,6 +62,11 @@ struct SceneResult {
   double seconds_tracking = 0, seconds_panorama = 0, seconds_registration = 0, seconds_integration = 0;
   double seconds_pose_graph = 0;
 };
+
+// What registration made of each pair, as `recon scene` writes it (registrations.json): per kept
+// registration its pose, overlap, feature evidence and runner-up (with the ambiguity verdict: taken,
+// dismissed or kept below), and every skipped pair with its reason. `names` are the panoramas' names.
+nlohmann::json scene_registrations_to_json(const std::vector<std::string>& names, const SceneResult& result);
 
 // Stage 2's poses for built panoramas: pairwise registrations (every pair when
 // options.register_all_pairs, else the consecutive ones), then place_panoramas (placement.h) from
