@@ -225,18 +225,7 @@ void run_recon_register(const ReconRegisterArguments& a) {
               {"consistent_with_result", r.consistent_matches}};
   j["icp"] = icp_json(r.icp, options.icp);
   j["overlap"] = r.overlap;
-  if (r.alternative_refined) {
-    const Rigid3d between = r.alternative_target_from_source.inverse() * r.target_from_source;
-    j["alternative"] = {{"orb_inliers", r.guess.alternative_inliers},
-                        {"guided_matches", r.guess.alternative_guided_matches},
-                        {"evidence", r.guess.alternative_evidence()},
-                        {"dismissed", r.alternative_dismissed},
-                        {"target_from_source", pose_to_json(r.alternative_target_from_source)},
-                        {"overlap", r.alternative_overlap},
-                        {"consistent_matches", r.alternative_consistent_matches},
-                        {"rotation_from_result_deg", rad2deg(rotation_angle(between.linear()))},
-                        {"translation_from_result_m", between.translation().norm()}};
-  }
+  if (r.alternative_refined) j["alternative"] = runner_up_to_json(r);
   // When both panoramas were built in one frame (ground-truth poses of one scene), their stored
   // poses give the true relative pose; otherwise (tracked, each scan in its own frame) this
   // difference means nothing.

@@ -205,6 +205,19 @@ TEST(Stage2, TheAmbiguityVerdictNeedsGeometryAndAppearanceToAgreeBeforeDismissin
   EXPECT_EQ(judge_runner_up(0.948, 900, 0.828, 27, options), RunnerUpVerdict::kKeepBest);
 }
 
+TEST(Stage2, TheAmbiguityEvidenceFractionIsAConfigKeyCheckedForRange) {
+  Config set = Config::from_string("registration: {ambiguity_evidence_fraction: 0.25}\n", "set.yaml");
+  EXPECT_DOUBLE_EQ(pair_registration_options_from_config(set).ambiguity_evidence_fraction, 0.25);
+  Config out_of_range = Config::from_string("registration: {ambiguity_evidence_fraction: 2}\n", "fraction.yaml");
+  try {
+    pair_registration_options_from_config(out_of_range);
+    ADD_FAILURE() << "ambiguity_evidence_fraction 2 accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("registration.ambiguity_evidence_fraction"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("fraction.yaml"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Stage2, AnAsymmetricRoomsBetterRunnerUpIsTakenNotCalledAmbiguous) {
   // The living room's SL-2 -> SL-1 (source turned by 90 degrees). The ORB guess gathers
   // 224 matches, its runner-up 230 (after the refits); the first after ICP overlaps by 0.73 - a wrong pose that passes every other check -,

@@ -137,15 +137,7 @@ nlohmann::json scene_registrations_to_json(const std::vector<std::string>& names
                              {"guided_matches", r.guess.guided_matches},
                              {"evidence", r.guess.evidence()}}},
                            {"consistent_matches", r.consistent_matches},
-                           {"runner_up", nullptr}};
-    if (r.alternative_refined) {
-      const Rigid3d between = r.alternative_target_from_source.inverse() * r.target_from_source;
-      pair["runner_up"] = {{"evidence", r.guess.alternative_evidence()},
-                           {"overlap", r.alternative_overlap},
-                           {"dismissed", r.alternative_dismissed},
-                           {"rotation_from_result_deg", rad2deg(rotation_angle(between.linear()))},
-                           {"translation_from_result_m", between.translation().norm()}};
-    }
+                           {"runner_up", runner_up_to_json(r)}};
     j["kept"].push_back(std::move(pair));
   }
   j["skipped"] = result.skipped_pairs;

@@ -4,11 +4,13 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "panoscan/core/error.h"
 #include "panoscan/core/log.h"
 #include "panoscan/core/config.h"
 #include "panoscan/core/kdtree.h"
+#include "panoscan/core/pose_json.h"
 #include "panoscan/recon/point_covariance.h"
 
 namespace panoscan {
@@ -142,6 +144,20 @@ RunnerUpVerdict judge_runner_up(double best_overlap, int best_evidence, double r
       double(runner_up_evidence) < options.ambiguity_evidence_fraction * double(best_evidence))
     return RunnerUpVerdict::kDismissed;
   return RunnerUpVerdict::kAmbiguous;
+}
+
+nlohmann::json runner_up_to_json(const PairRegistration& r) {
+  if (!r.alternative_refined) return nullptr;
+  const Rigid3d between = r.alternative_target_from_source.inverse() * r.target_from_source;
+  return {{"orb_inliers", r.guess.alternative_inliers},
+          {"guided_matches", r.guess.alternative_guided_matches},
+          {"evidence", r.guess.alternative_evidence()},
+          {"dismissed", r.alternative_dismissed},
+          {"target_from_source", pose_to_json(r.alternative_target_from_source)},
+          {"overlap", r.alternative_overlap},
+          {"consistent_matches", r.alternative_consistent_matches},
+          {"rotation_from_result_deg", rad2deg(rotation_angle(between.linear()))},
+          {"translation_from_result_m", between.translation().norm()}};
 }
 
 PairRegistration register_panorama_pair(const Panorama& source, const Panorama& target,

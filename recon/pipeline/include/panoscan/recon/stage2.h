@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include "panoscan/core/config.h"
 
 #include "panoscan/recon/feature_alignment.h"
@@ -114,6 +116,11 @@ struct PairRegistration {
 enum class RunnerUpVerdict { kKeepBest, kTakeRunnerUp, kDismissed, kAmbiguous };
 RunnerUpVerdict judge_runner_up(double best_overlap, int best_evidence, double runner_up_overlap,
                                 int runner_up_evidence, const PairRegistrationOptions& options);
+
+// The refined runner-up of a registration as JSON (`recon register`'s "alternative", `recon scene`'s
+// "runner_up"): its ORB inliers, guided matches and evidence, whether it was dismissed, its pose,
+// overlap and consistent matches, and how far it lies from the result. Null when none was refined.
+nlohmann::json runner_up_to_json(const PairRegistration& registration);
 
 // The fraction of source points whose nearest target point (within max_correspondence_m, after
 // target_from_source) has its tangent plane within max_plane_distance_m. Needs target normals.
