@@ -12,6 +12,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <set>
 #include <tuple>
 
 #include "panoscan/core/config.h"
@@ -151,6 +152,13 @@ class TrackingTest : public ::testing::Test {
     return figures;
   }
 
+  // The calibrated extrinsics' errors against the truth: where the tracking starts from.
+  static std::vector<eval::PoseError> calibrated_extrinsics_errors() {
+    std::vector<Rigid3d> ref_from_cam;
+    for (const auto& sensor : scan_->rig.sensors) ref_from_cam.push_back(sensor.ref_from_cam);
+    return eval::extrinsics_errors(ref_from_cam, truth_->ref_from_cam);
+  }
+
   static std::unique_ptr<testutil::TempDir> dir_;
   static std::unique_ptr<ScanIndex> scan_;
   static std::unique_ptr<RigTrajectory> truth_;
@@ -213,8 +221,9 @@ TEST_F(TrackingTest, FullGraphBeatsItsAblationsAndRecoversAxisAndExtrinsics) {
   const Figures without_shared_wobble = run(independent_wobble, "without shared wobble");
 
   // The full graph beats BA alone and each graph without one of its regularising factors
-  // (measured ATE: full 4.52, BA only 31.55, without Eq. 2 31.55, without Eq. 3 6.41, without the
-  // shared wobble 8.97 mm). On the rich texture density Eq. 3 made no difference (1.65 mm either
+  // (measured ATE: full 4.26, BA only 37.6, without Eq. 2 37.6, without Eq. 3 6.09, without the
+  // shared wobble 8.13 mm; before the bulk normal stream changed the noise's realisation: 4.52, 31.55,
+  // 31.55, 6.41, 8.97 mm). On the rich texture density Eq. 3 made no difference (1.65 mm either
   // way): it carries the frames that see plain walls.
   EXPECT_LT(full.ate_m, 0.4 * ba_only.ate_m);
   EXPECT_LT(full.ate_m, 0.4 * without_eq2.ate_m);
@@ -226,17 +235,13 @@ TEST_F(TrackingTest, FullGraphBeatsItsAblationsAndRecoversAxisAndExtrinsics) {
   // difference on this scan, whose first frame wobbles little; gate_table2 checks it on SO-1 and SL-1.)
   EXPECT_LT(full.axis.angle_deg, 0.25);
   EXPECT_LT(full.axis.offset_at_reference_m, 0.005);
-  // Refined extrinsics closer to the truth than the calibrated ones they started from (measured, summed:
-  // 0.67 deg / 9.4 mm against 1.0 deg / 10 mm).
-  const auto calibrated = eval::extrinsics_errors(
-      [&] {
-        std::vector<Rigid3d> ref_from_cam;
-        for (const auto& sensor : scan_->rig.sensors) ref_from_cam.push_back(sensor.ref_from_cam);
-        return ref_from_cam;
-      }(),
-      truth_->ref_from_cam);
-  // Summed over the non-reference cameras (one camera's rotation may get worse: with no cross-camera
+  // Refined extrinsics: their rotations closer to the truth than the calibrated ones they started
+  // from, summed over the non-reference cameras (one camera's may get worse: with no cross-camera
   // landmarks in the simulated rig's 0.6 deg overlap, Eq. 2 alone refines T_c; see the report).
+  // Their translations are barely observed by this graph on this 320x240 scan (measured, summed:
+  // 9.4 and 10.1 mm against 10 mm calibrated on two noise realisations, one camera better, one
+  // worse): they must not run away; the depth odometry's test below asserts that they improve.
+  const auto calibrated = calibrated_extrinsics_errors();
   double calibrated_deg = 0, calibrated_m = 0, tracked_deg = 0, tracked_m = 0;
   for (int s = 0; s < int(calibrated.size()); ++s) {
     if (s == scan_->rig.reference_sensor) continue;
@@ -249,7 +254,7 @@ TEST_F(TrackingTest, FullGraphBeatsItsAblationsAndRecoversAxisAndExtrinsics) {
     tracked_m += full.extrinsics[s].translation_m;
   }
   EXPECT_LT(tracked_deg, calibrated_deg);
-  EXPECT_LT(tracked_m, calibrated_m);
+  EXPECT_LT(tracked_m, 1.3 * calibrated_m);
 }
 
 TEST_F(TrackingTest, DepthOdometryHoldsThePlainFramesBetterThanEq2And3Alone) {
@@ -268,8 +273,19 @@ TEST_F(TrackingTest, DepthOdometryHoldsThePlainFramesBetterThanEq2And3Alone) {
   int pairs = 0;
   for (const auto& frames : scan_->frames) pairs += int(frames.size()) - 1;
   EXPECT_GE(depth_result.stats.depth_pairs, int(0.9 * pairs));
-  // Measured ATE (320x240, seed 7): 3.91 mm without, 1.22 mm with the depth odometry.
+  // Measured ATE (320x240, seed 7): 4.26 mm without, 1.17 mm with the depth odometry.
   EXPECT_LT(depth.ate_m, 0.6 * full.ate_m);
+  // With it the extrinsics' translations are observed: each camera's and their sum closer to the
+  // truth than the calibration (measured, summed: 2.8 mm against 10 mm calibrated).
+  const auto calibrated = calibrated_extrinsics_errors();
+  double calibrated_m = 0, tracked_m = 0;
+  for (int s = 0; s < int(calibrated.size()); ++s) {
+    if (s == scan_->rig.reference_sensor) continue;
+    EXPECT_LT(depth.extrinsics[s].translation_m, calibrated[s].translation_m) << "cam" << s;
+    calibrated_m += calibrated[s].translation_m;
+    tracked_m += depth.extrinsics[s].translation_m;
+  }
+  EXPECT_LT(tracked_m, 0.6 * calibrated_m);
   // Bundle adjustment stays Eq. 1 alone: the option does not enter ba-only mode.
   TrackingOptions ba = with_depth;
   ba.mode = TrackingMode::kBaOnly;
@@ -872,35 +888,69 @@ TEST(TrackingSynchronisation, UnsynchronizedShuttersAreHandledAsWellAsSynchroniz
 }
 
 TEST(TrackingLoopClosure, LoopPairsThatMapAnObjectOntoItsTwinAreRejected) {
-  // Generated office seed 3 has two identical workstations side by side. With the rotator checks
-  // of the front end off (frontend.h, "A room with repeated objects"), RANSAC-verified loop pairs
-  // that map one desk onto the other bend the trajectory (measured at 320x240, n = 16: ATE 13.0 /
-  // 26.8 / 15.8 mm, and the self-check passes it); with them on it is right (5.2 / 4.2 / 4.1 mm).
+  // Generated office seed 3 has two identical workstations side by side. RANSAC verifies some loop
+  // pairs that map one desk onto the other; the rotator checks of the front end (frontend.h, "A room
+  // with repeated objects") must reject every such pair and keep loop closure. Each verified loop
+  // pair is held against the truth: one whose translation misses the true relative pose by more
+  // than 0.25 m maps an object onto another (valid pairs miss by up to 48 mm). Whether such a pair
+  // bends the trajectory depends on the noise's realisation (one realisation: mean ATE 18.5 mm
+  // without the checks and 4.5 mm with them; another: 6.3 against 4.4 mm), so the pairs are checked
+  // one by one, over three simulation seeds, and the tracking with the checks on every seed.
   testutil::TempDir dir("tracking-twins");
   scenes::RoomSpec spec;
   spec.kind = scenes::RoomKind::kOffice;
   spec.seed = 3;
   const Scene scene = scenes::generate_room(spec).scene;
-  SimOptions options = small_scan_options();
-  options.seed = 1;
-  Simulator(scene, 0, options).write_scan(dir.path() / "scan", false);
-  const ScanIndex scan = read_scan_index(dir.path() / "scan");
   TrackingOptions checked = test_tracking_options();
-  TrackingOptions unchecked = checked;
-  unchecked.frontend.max_pair_translation_m = 100.0;
-  unchecked.frontend.loop_max_deviation_deg = 0.0;
-  unchecked.frontend.loop_max_deviation_m = 0.0;
-  const TrackingResult with_checks = track_scan(scan, checked);
-  const TrackingResult without_checks = track_scan(scan, unchecked);
-  const double ate_with = mean_ate(dir.path() / "scan", with_checks);
-  const double ate_without = mean_ate(dir.path() / "scan", without_checks);
-  std::printf("mean ATE: with the rotator checks %.2f mm (%d far and %d loop pairs rejected), without %.2f mm\n",
-              1e3 * ate_with, with_checks.stats.rejected_far_pairs, with_checks.stats.rejected_loop_pairs,
-              1e3 * ate_without);
-  EXPECT_GT(with_checks.stats.rejected_far_pairs + with_checks.stats.rejected_loop_pairs, 0);
-  EXPECT_EQ(without_checks.stats.rejected_far_pairs + without_checks.stats.rejected_loop_pairs, 0);
-  EXPECT_LT(ate_with, 0.008);
-  EXPECT_GT(ate_without, 1.5 * ate_with);
+  FrontendOptions unchecked = checked.frontend;
+  unchecked.max_pair_translation_m = 100.0;
+  unchecked.loop_max_deviation_deg = 0.0;
+  unchecked.loop_max_deviation_m = 0.0;
+  int wrong = 0, wrong_kept = 0, right = 0, right_kept = 0;
+  for (const std::uint64_t seed : {1, 2, 3}) {
+    SimOptions options = small_scan_options();
+    options.seed = seed;
+    const auto scan_dir = dir.path() / ("scan" + std::to_string(seed));
+    Simulator(scene, 0, options).write_scan(scan_dir, false);
+    const ScanIndex scan = read_scan_index(scan_dir);
+    const RigTrajectory truth = eval::groundtruth_rig_trajectory(scan_dir);
+    const FrontendResult with_checks = run_frontend(scan, checked.frontend);
+    const FrontendResult without_checks = run_frontend(scan, unchecked);
+    EXPECT_EQ(without_checks.rejected_far_pairs + without_checks.rejected_loop_pairs, 0);
+    std::set<std::array<int, 3>> kept;
+    for (const FramePairMatch& pair : with_checks.pairs)
+      if (pair.kind == FramePairMatch::Kind::kLoop) kept.insert({pair.sensor_a, pair.frame_a, pair.frame_b});
+    int seed_wrong = 0, seed_right = 0;
+    for (const FramePairMatch& pair : without_checks.pairs) {
+      if (pair.kind != FramePairMatch::Kind::kLoop) continue;
+      const Rigid3d true_a_from_b = truth.world_from_cam[pair.sensor_a][pair.frame_a].world_from_cam.inverse() *
+                                    truth.world_from_cam[pair.sensor_b][pair.frame_b].world_from_cam;
+      const double miss_m = (true_a_from_b.inverse() * pair.a_from_b).translation().norm();
+      const bool is_kept = kept.count({pair.sensor_a, pair.frame_a, pair.frame_b}) > 0;
+      if (miss_m > 0.25) {
+        ++seed_wrong;
+        wrong_kept += is_kept;
+        EXPECT_FALSE(is_kept) << "seed " << seed << ": loop pair cam" << pair.sensor_a << " " << pair.frame_a << "-"
+                              << pair.frame_b << " misses the truth by " << miss_m << " m and was kept";
+      } else {
+        ++seed_right;
+        right_kept += is_kept;
+      }
+    }
+    wrong += seed_wrong;
+    right += seed_right;
+    const TrackingResult tracked = track_with_frontend(scan, with_checks, checked);
+    const double ate = mean_ate(scan_dir, tracked);
+    std::printf(
+        "seed %d: %d verified loop pairs map an object onto another, %d are right; with the checks %d far "
+        "and %d loop pairs rejected, mean ATE %.2f mm\n",
+        int(seed), seed_wrong, seed_right, with_checks.rejected_far_pairs, with_checks.rejected_loop_pairs, 1e3 * ate);
+    EXPECT_LT(ate, 0.008) << "seed " << seed;
+  }
+  std::printf("wrong loop pairs kept: %d of %d; right ones kept: %d of %d\n", wrong_kept, wrong, right_kept, right);
+  EXPECT_GT(wrong, 0);  // the room does what the test is for
+  EXPECT_EQ(wrong_kept, 0);
+  EXPECT_GT(right_kept, right / 2);  // loop closure stays
 }
 
 TEST(TrackingBand, TheOuterCamerasExtrinsicsComeFromTheOverlapBand) {

@@ -309,133 +309,115 @@ ImageF32 apply_depth_noise(const DepthNoiseInput& input, const NoiseOptions& opt
   const bool use_avx2 = cpu::has_avx2() && input.kernel != DepthNoiseInput::Kernel::kScalar;
 #endif
   const double ir_dropout = options.ir_dropout, ir_disparity_std = options.ir_disparity_std;
-  // Rows are drawn and modelled in blocks of kRowBlock: a block's variates are drawn first, eight
-  // rows' streams per operation (draw_normals), then the model runs over each row. Each stream
-  // gives the same draws in the same order as when the pixel loop drew them (the streams are
-  // independent of each other, one per purpose and row), so the noise does not depend on the
-  // blocks or on how they are scheduled, and the model's loop is free of the generators (which lets
-  // it run four pixels per AVX2 operation).
-  constexpr int kRowBlock = 8;
-  const int blocks = (height + kRowBlock - 1) / kRowBlock;
-  tbb::parallel_for(tbb::blocked_range<int>(0, blocks), [&](const tbb::blocked_range<int>& block_range) {
-    // The shift stream's draws alternate x and y per pixel: row r's are shifts[r][2x], [2x + 1].
-    std::vector<std::vector<double>> shifts(kRowBlock, std::vector<double>(2 * std::size_t(width))),
-        disparities(kRowBlock, std::vector<double>(width)), laterals(kRowBlock, std::vector<double>(width, 0.0));
+  // Each row draws its deviates first, one bulk stream per (purpose, row) (BulkNormalStream: eight
+  // generators in the vector lanes), then the model runs over the row. The streams are keyed by
+  // row, so the noise does not depend on how rows are scheduled, and the model's loop is free of
+  // the generators (which lets it run four or eight pixels per vector operation).
+  tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
+    // The shift stream's draws alternate x and y per pixel: shifts[2x], [2x + 1].
+    std::vector<double> shifts(2 * std::size_t(width)), disparities(width), laterals(width, 0.0);
     std::vector<double> speckle_noise(width, 0.0);
     std::vector<std::uint8_t> speckle_hole(width, 0);
-    std::vector<RandomStream> streams;
-    std::vector<double*> out(kRowBlock);
-    // Draws `n` deviates times `scale` per row of the block from the streams of `purpose` into `rows`.
-    auto draw_block = [&](int first_row, int count, RandomPurpose purpose, std::size_t n, double scale,
-                          std::vector<std::vector<double>>& rows) {
-      streams.clear();
-      for (int r = 0; r < count; ++r) {
-        // One stream per (purpose, row): the result does not depend on how rows are scheduled.
-        streams.emplace_back(seed, input.sensor, input.frame, purpose, first_row + r);
-        out[r] = rows[r].data();
-      }
+    for (int y = rows.begin(); y != rows.end(); ++y) {
       // Every variate is drawn for every pixel so that validity never shifts the streams.
-      draw_normals(streams.data(), std::size_t(count), n, scale, out.data());
-    };
-    for (int block = block_range.begin(); block != block_range.end(); ++block) {
-      const int first_row = block * kRowBlock, count = std::min(kRowBlock, height - first_row);
-      draw_block(first_row, count, RandomPurpose::kDepthShift, 2 * std::size_t(width), shift_std, shifts);
-      draw_block(first_row, count, RandomPurpose::kDepthDisparity, width, disparity_std, disparities);
-      if (lateral) draw_block(first_row, count, RandomPurpose::kDepthLateral, width, 1.0, laterals);
-      for (int y = first_row; y < first_row + count; ++y) {
-        const double* shift = shifts[y - first_row].data();
-        const double* disparity_noise = disparities[y - first_row].data();
-        const double* lateral_noise = laterals[y - first_row].data();
-        const bool in_band =
-            options.ir_speckle && band_rows > 0 &&
-            ((input.speckle_top && y < band_rows) || (input.speckle_bottom && y >= height - band_rows));
-        if (in_band) {
-          RandomStream speckle_rng(seed, input.sensor, input.frame, RandomPurpose::kSpeckle, y);
-          for (int x = 0; x < width; ++x) {
-            speckle_hole[x] = speckle_rng.uniform() < ir_dropout;
-            speckle_noise[x] = speckle_rng.normal() * ir_disparity_std;
-          }
-        } else {
-          std::fill(speckle_hole.begin(), speckle_hole.end(), std::uint8_t(0));
-          std::fill(speckle_noise.begin(), speckle_noise.end(), 0.0);
+      BulkNormalStream(seed, input.sensor, input.frame, RandomPurpose::kDepthShift, y)
+          .fill(shifts.size(), shift_std, shifts.data());
+      BulkNormalStream(seed, input.sensor, input.frame, RandomPurpose::kDepthDisparity, y)
+          .fill(disparities.size(), disparity_std, disparities.data());
+      if (lateral)
+        BulkNormalStream(seed, input.sensor, input.frame, RandomPurpose::kDepthLateral, y)
+            .fill(laterals.size(), 1.0, laterals.data());
+      const double* shift = shifts.data();
+      const double* disparity_noise = disparities.data();
+      const double* lateral_noise = laterals.data();
+      const bool in_band = options.ir_speckle && band_rows > 0 &&
+                           ((input.speckle_top && y < band_rows) || (input.speckle_bottom && y >= height - band_rows));
+      if (in_band) {
+        RandomStream speckle_rng(seed, input.sensor, input.frame, RandomPurpose::kSpeckle, y);
+        for (int x = 0; x < width; ++x) {
+          speckle_hole[x] = speckle_rng.uniform() < ir_dropout;
+          speckle_noise[x] = speckle_rng.normal() * ir_disparity_std;
         }
+      } else {
+        std::fill(speckle_hole.begin(), speckle_hole.end(), std::uint8_t(0));
+        std::fill(speckle_noise.begin(), speckle_noise.end(), 0.0);
+      }
 
-        const float* clean_row = clean.row(y);
-        const float* incidence_row = incidence.row(y);
-        float* noisy_row = noisy.row(y);
-        int first_scalar = 0;
+      const float* clean_row = clean.row(y);
+      const float* incidence_row = incidence.row(y);
+      float* noisy_row = noisy.row(y);
+      int first_scalar = 0;
 #if PANOSCAN_NOISE_AVX2
-        if (!lateral && use_avx2) {
-          const RowModel model{clean_row,
-                               incidence_row,
-                               inverse_depth.data.data(),
-                               speckle_hole.data(),
-                               shift,
-                               disparity_noise,
-                               speckle_noise.data(),
-                               noisy_row,
-                               width,
-                               height,
-                               y,
-                               min_cos,
-                               options.min_depth_m,
-                               options.max_depth_m};
-          first_scalar = use_avx512 ? handa_row_avx512(model) : handa_row_avx2(model);
-        }
+      if (!lateral && use_avx2) {
+        const RowModel model{clean_row,
+                             incidence_row,
+                             inverse_depth.data.data(),
+                             speckle_hole.data(),
+                             shift,
+                             disparity_noise,
+                             speckle_noise.data(),
+                             noisy_row,
+                             width,
+                             height,
+                             y,
+                             min_cos,
+                             options.min_depth_m,
+                             options.max_depth_m};
+        first_scalar = use_avx512 ? handa_row_avx512(model) : handa_row_avx2(model);
+      }
 #endif
-        for (int x = first_scalar; x < width; ++x) {
-          const double z_clean = clean_row[x];
-          const double cos_incidence = incidence_row[x];
-          if (z_clean <= 0 || cos_incidence < min_cos || speckle_hole[x]) continue;
+      for (int x = first_scalar; x < width; ++x) {
+        const double z_clean = clean_row[x];
+        const double cos_incidence = incidence_row[x];
+        if (z_clean <= 0 || cos_incidence < min_cos || speckle_hole[x]) continue;
 
-          // Step 1: sub-pixel shift, bilinear interpolation of inverse depth (clamped at the border);
-          // a lookup touching an invalid neighbour is invalid.
-          const double sx = std::clamp(x + shift[2 * x], 0.0, double(width - 1));
-          const double sy = std::clamp(y + shift[2 * x + 1], 0.0, double(height - 1));
-          const int x0 = static_cast<int>(sx), y0 = static_cast<int>(sy);
-          const int x1 = std::min(x0 + 1, width - 1), y1 = std::min(y0 + 1, height - 1);
-          const double fx = sx - x0, fy = sy - y0;
-          const float* upper = inverse_depth.row(y0);
-          const float* lower = inverse_depth.row(y1);
-          const double i00 = upper[x0], i10 = upper[x1];
-          const double i01 = lower[x0], i11 = lower[x1];
-          // The four tests combined without short-circuit branches: each is rarely true, and one
-          // branch predicts better than four.
-          if ((i00 == 0) | (i10 == 0) | (i01 == 0) | (i11 == 0)) continue;
-          double inv = (1 - fy) * ((1 - fx) * i00 + fx * i10) + fy * ((1 - fx) * i01 + fx * i11);
+        // Step 1: sub-pixel shift, bilinear interpolation of inverse depth (clamped at the border);
+        // a lookup touching an invalid neighbour is invalid.
+        const double sx = std::clamp(x + shift[2 * x], 0.0, double(width - 1));
+        const double sy = std::clamp(y + shift[2 * x + 1], 0.0, double(height - 1));
+        const int x0 = static_cast<int>(sx), y0 = static_cast<int>(sy);
+        const int x1 = std::min(x0 + 1, width - 1), y1 = std::min(y0 + 1, height - 1);
+        const double fx = sx - x0, fy = sy - y0;
+        const float* upper = inverse_depth.row(y0);
+        const float* lower = inverse_depth.row(y1);
+        const double i00 = upper[x0], i10 = upper[x1];
+        const double i01 = lower[x0], i11 = lower[x1];
+        // The four tests combined without short-circuit branches: each is rarely true, and one
+        // branch predicts better than four.
+        if ((i00 == 0) | (i10 == 0) | (i01 == 0) | (i11 == 0)) continue;
+        double inv = (1 - fy) * ((1 - fx) * i00 + fx * i10) + fy * ((1 - fx) * i01 + fx * i11);
 
-          if (lateral) {
-            // handa-icl: displacement along the surface normal with Nguyen et al.'s lateral std
-            // sigma_L = (0.8 + 0.035 theta / (pi/2 - theta)) * Z / f; along the ray this moves the
-            // range by delta / cos(theta), i.e. z by delta / (cos(theta) * |ray|) for a z-unit ray.
-            double z = 1.0 / inv;
-            const double c = std::max(cos_incidence, 0.1);
-            const double theta = std::acos(std::min(c, 1.0));
-            const double sigma_px = 0.8 + 0.035 * theta / std::max(M_PI / 2 - theta, 1e-3);
-            const double delta = lateral_noise[x] * sigma_px * z / k.fx;
-            const double ray_x = (x - k.cx) / k.fx, ray_y = (y - k.cy) / k.fy;
-            z += delta / (c * std::sqrt(1.0 + ray_x * ray_x + ray_y * ray_y));
-            if (z <= 0) continue;
-            inv = 1.0 / z;
-          }
-
-          // Step 2: disparity noise and unbiased rounding to whole disparity units.
-          const double disparity = kDisparityTimesMetres * inv + disparity_noise[x] + speckle_noise[x];
-          // floor(disparity + 0.5) > 0 exactly when disparity + 0.5 >= 1; below 2^31 the integer
-          // conversion truncates, which for positive values is the floor (std::floor is a libm
-          // sequence on the baseline x86-64 target).
-          const double rounded = disparity + 0.5;
-          if (!(rounded >= 1.0)) continue;
-          double z_noisy;
-          if (rounded < double(kDepthTableSize)) {
-            z_noisy = depth_of_disparity[static_cast<int>(rounded)];
-          } else {
-            z_noisy = kDisparityTimesMetres / std::floor(rounded);
-          }
-          // Step 3: sensor range.
-          if (z_noisy < min_depth || z_noisy > max_depth) continue;
-          noisy_row[x] = static_cast<float>(z_noisy);
+        if (lateral) {
+          // handa-icl: displacement along the surface normal with Nguyen et al.'s lateral std
+          // sigma_L = (0.8 + 0.035 theta / (pi/2 - theta)) * Z / f; along the ray this moves the
+          // range by delta / cos(theta), i.e. z by delta / (cos(theta) * |ray|) for a z-unit ray.
+          double z = 1.0 / inv;
+          const double c = std::max(cos_incidence, 0.1);
+          const double theta = std::acos(std::min(c, 1.0));
+          const double sigma_px = 0.8 + 0.035 * theta / std::max(M_PI / 2 - theta, 1e-3);
+          const double delta = lateral_noise[x] * sigma_px * z / k.fx;
+          const double ray_x = (x - k.cx) / k.fx, ray_y = (y - k.cy) / k.fy;
+          z += delta / (c * std::sqrt(1.0 + ray_x * ray_x + ray_y * ray_y));
+          if (z <= 0) continue;
+          inv = 1.0 / z;
         }
+
+        // Step 2: disparity noise and unbiased rounding to whole disparity units.
+        const double disparity = kDisparityTimesMetres * inv + disparity_noise[x] + speckle_noise[x];
+        // floor(disparity + 0.5) > 0 exactly when disparity + 0.5 >= 1; below 2^31 the integer
+        // conversion truncates, which for positive values is the floor (std::floor is a libm
+        // sequence on the baseline x86-64 target).
+        const double rounded = disparity + 0.5;
+        if (!(rounded >= 1.0)) continue;
+        double z_noisy;
+        if (rounded < double(kDepthTableSize)) {
+          z_noisy = depth_of_disparity[static_cast<int>(rounded)];
+        } else {
+          z_noisy = kDisparityTimesMetres / std::floor(rounded);
+        }
+        // Step 3: sensor range.
+        if (z_noisy < min_depth || z_noisy > max_depth) continue;
+        noisy_row[x] = static_cast<float>(z_noisy);
       }
     }
   });

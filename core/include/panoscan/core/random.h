@@ -41,15 +41,21 @@ struct ZigguratTables {
   ZigguratTables();
 };
 const ZigguratTables& ziggurat_tables();
+
+// The bulk generator's ziggurat (BulkNormalStream): 256 layers of equal area v (Marsaglia & Tsang
+// 2000's 256-layer constants), indexed by 8 bits of a 32-bit draw; `unit_width` is width / 2^23, the
+// width of one step of its 23-bit u.
+struct BulkZigguratTables {
+  static constexpr int kLayers = 256;
+  static constexpr double kTailStart = 3.6541528853610088;  // r
+  static constexpr double kLayerArea = 4.92867323399e-3;    // v
+  double unit_width[kLayers];
+  double width[kLayers + 1];
+  double height[kLayers + 1];  // f(width)
+  BulkZigguratTables();
+};
+const BulkZigguratTables& bulk_ziggurat_tables();
 }  // namespace detail
-
-class RandomStream;
-
-// `n` normal deviates from each of `count` streams, times `scale`: out[s][i] = streams[s].normal() *
-// scale for i = 0 .. n - 1, each stream advanced as those calls advance it. Where the CPU has
-// AVX-512, eight streams draw at once in its lanes (the simulator's per-pixel noise draws three
-// deviates per pixel, one stream per row): the same values bit for bit, whatever `count`.
-void draw_normals(RandomStream* streams, std::size_t count, std::size_t n, double scale, double* const* out);
 
 class RandomStream {
  public:
@@ -95,22 +101,54 @@ class RandomStream {
   int uniform_int(int lo, int hi_inclusive);
 
  private:
-  friend void draw_normals(RandomStream*, std::size_t, std::size_t, double, double* const*);
-  friend void draw_normals_lanes(RandomStream*, std::size_t, double, double* const*, std::size_t*);
+  friend class BulkNormalStream;
+  // A stream whose state comes from an already mixed key.
+  explicit RandomStream(std::uint64_t key);
   static std::uint64_t rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
   // The rest of normal() for a draw `bits` outside its layer's core: the tail or the wedge, and
   // further draws while they are rejected.
   double normal_outside_core(std::uint64_t bits);
-  // draw_normals' per-stream step: the normal() values of this stream's next `count` draws, already
-  // made (`bits`; `scaled_core`, each one's value times `scale` if it falls inside its layer's core;
-  // `outside`, bit i set where draw i does not), written to `out`. A draw outside its core goes
-  // through normal_outside_core, which takes its further draws from those that follow it, then from
-  // the stream (left just past the `count` draws). Returns how many values it wrote.
-  std::size_t normals_from_draws(const std::uint64_t* bits, const double* scaled_core, const std::uint64_t* outside,
-                                 std::size_t count, double scale, double* out);
-
   std::uint64_t state_[4];
   const detail::ZigguratTables* ziggurat_;
+};
+
+// Normal deviates in bulk, for per-pixel noise (the simulator draws three per depth pixel): one
+// keyed stream made of eight xoshiro256** generators side by side, so that each of them is a lane of
+// an AVX-512 or AVX2 operation, and each 64-bit draw gives two 32-bit draws. A 32-bit draw is a
+// deviate of the 256-layer ziggurat (8 bits pick the layer, 1 the sign, 23 are u): x = u * width /
+// 2^23 in double, returned where x < the next layer's width (98.5% of draws). The other 1.5% (the
+// wedge and the tail) take their further uniforms from a scalar stream of their own, in the order
+// of their positions, and are filled in after the lanes, so the lanes never wait on them.
+// Draw k of a fill comes from step k / 16 of the eight generators, generator (k % 16) / 2, its low
+// 32 bits for even k and its high 32 bits for odd k. Every instruction set computes the same bits
+// (the scalar code is the reference; the lanes use the same IEEE operations, no contraction).
+// Keyed like RandomStream; the sequence differs from RandomStream::normal's.
+class BulkNormalStream {
+ public:
+  BulkNormalStream(std::uint64_t seed, std::int64_t camera, std::int64_t frame, RandomPurpose purpose,
+                   std::int64_t lane = 0);
+  // The instruction set of the lanes: the widest the CPU has (and PANOSCAN_CPU allows), at most
+  // AVX2, or the scalar reference. Each gives the same bits; a kernel the CPU lacks falls back to
+  // the next narrower one.
+  enum class Kernel { kFastest, kAvx2, kScalar };
+  // The next `n` deviates times `scale` into out[0 .. n - 1]. A fill uses whole steps of the eight
+  // generators (16 draws): a further fill starts at the next step, whatever this one left unused.
+  void fill(std::size_t n, double scale, double* out, Kernel kernel = Kernel::kFastest);
+
+  // How the last fill's draws went: how many left their layer's core (wedge or tail).
+  std::size_t last_fill_outside_core() const { return last_fill_outside_core_; }
+
+ private:
+  // The deviate of a 32-bit draw outside its layer's core: the wedge test or the tail, with further
+  // uniforms (and a whole further deviate where the wedge rejects) from rare_.
+  double outside_core(std::uint32_t draw);
+  void fill_scalar(std::size_t n, double scale, double* out);
+  void fill_avx512(std::size_t n, double scale, double* out);
+  void fill_avx2(std::size_t n, double scale, double* out);
+
+  alignas(64) std::uint64_t state_[4][8];  // [word][generator]: a word of all eight is one vector
+  RandomStream rare_;
+  std::size_t last_fill_outside_core_ = 0;
 };
 
 }  // namespace panoscan
