@@ -991,6 +991,31 @@ TEST(TrackingBand, TheOuterCamerasExtrinsicsComeFromTheOverlapBand) {
   }
   EXPECT_GE(funnel.band_accepted, 30);
   EXPECT_EQ(held.stats.cross_camera.band_accepted, 0);
+  EXPECT_FALSE(tracked.stats.extrinsics_slide_held);
+
+  // A released solve whose extrinsics fail the self-check is solved again with their slide along
+  // the axis held at the calibration (TrackingOptions::hold_extrinsics_slide; office SL-2 seed 7
+  // at 640x480 slid cam0 56 mm on its band landmarks). A limit of 0.1 mm fails any released solve:
+  // the second solve must run, say so, and keep each camera's slide at the calibration.
+  TrackingOptions strict = with_band;
+  strict.verify.max_extrinsics_change_m = 1e-4;
+  const TrackingResult retried = track_scan(scan, strict);
+  EXPECT_TRUE(retried.stats.extrinsics_slide_held);
+  EXPECT_NE(retried.stats.first_solve_failure.find("extrinsics"), std::string::npos)
+      << retried.stats.first_solve_failure;
+  // The axis in the reference camera's frame at its first frame (the rig frame up to the wobble).
+  const int ref = scan.rig.reference_sensor;
+  const Eigen::Vector3d axis_in_ref = tracked.trajectory.world_from_cam[ref][0].world_from_cam.linear().transpose() *
+                                      tracked.trajectory.world_from_axis.linear().col(2);
+  for (int c : {0, 2}) {
+    const Eigen::Vector3d calibrated_t = scan.rig.sensors[c].ref_from_cam.translation();
+    const double released_slide_mm =
+        1e3 * axis_in_ref.dot(tracked.trajectory.ref_from_cam[c].translation() - calibrated_t);
+    const double held_slide_mm = 1e3 * axis_in_ref.dot(retried.trajectory.ref_from_cam[c].translation() - calibrated_t);
+    std::printf("cam%d: slide along the axis from the calibration %.2f mm released, %.3f mm held\n", c,
+                released_slide_mm, held_slide_mm);
+    EXPECT_LT(std::abs(held_slide_mm), 0.2) << "cam" << c;
+  }
 }
 
 }  // namespace

@@ -36,8 +36,9 @@ void TrackingOptions::check(const std::string& origin) const {
   require(depth_noise_coefficient > 0, "track.depth_noise_coefficient", "must be > 0");
   require(max_iterations >= 1 && max_iterations <= 10000, "track.max_iterations", "must be in [1, 10000]");
   require(function_tolerance > 0 && function_tolerance < 1, "track.function_tolerance", "must be in (0, 1)");
-  require(initial_trust_region_radius == 0.0 || (initial_trust_region_radius >= 1.0 && initial_trust_region_radius <= 1e16),
-          "track.initial_trust_region_radius", "must be 0 (automatic) or in [1, 1e16]");
+  require(
+      initial_trust_region_radius == 0.0 || (initial_trust_region_radius >= 1.0 && initial_trust_region_radius <= 1e16),
+      "track.initial_trust_region_radius", "must be 0 (automatic) or in [1, 1e16]");
   require(linear_solver == "sparse_schur" || linear_solver == "sparse_normal_cholesky" ||
               linear_solver == "iterative_schur" || linear_solver == "dense_schur",
           "track.linear_solver", "must be sparse_schur, dense_schur, iterative_schur or sparse_normal_cholesky");
@@ -47,8 +48,8 @@ void TrackingOptions::check(const std::string& origin) const {
           "must be in [1, 64]");
   require(depth_odometry_information_scale > 0 && depth_odometry_information_scale <= 1e6,
           "track.depth_odometry_information_scale", "must be in (0, 1e6]");
-  require(depth_odometry_max_distance_m > 0 && depth_odometry_max_distance_m <= 10, "track.depth_odometry_max_distance_m",
-          "must be in (0, 10]");
+  require(depth_odometry_max_distance_m > 0 && depth_odometry_max_distance_m <= 10,
+          "track.depth_odometry_max_distance_m", "must be in (0, 10]");
   require(depth_odometry_min_overlap >= 0 && depth_odometry_min_overlap <= 1, "track.depth_odometry_min_overlap",
           "must be in [0, 1]");
   frontend.check(origin);
@@ -117,14 +118,15 @@ TrackingOptions tracking_options_from_config(Config& config) {
   o.extrinsics_null_prior = config.get_bool("track.extrinsics_null_prior", o.extrinsics_null_prior);
   o.extrinsics_release_min_landmarks =
       config.get_int("track.extrinsics_release_min_landmarks", o.extrinsics_release_min_landmarks, 1, 100000000);
+  o.hold_extrinsics_slide = config.get_bool("track.hold_extrinsics_slide", o.hold_extrinsics_slide);
   o.shared_wobble = config.get_bool("track.shared_wobble", o.shared_wobble);
   o.wobble_rate_std_deg_s = config.get_double("track.wobble_rate_std_deg_s", o.wobble_rate_std_deg_s, 1e-3, 1e4);
   o.wobble_rate_std_m_s = config.get_double("track.wobble_rate_std_m_s", o.wobble_rate_std_m_s, 1e-5, 100.0);
   o.same_time_s = config.get_double("track.same_time_s", o.same_time_s, 0.0, 0.099);
   o.depth_odometry = config.get_bool("track.depth_odometry", o.depth_odometry);
   o.depth_odometry_block_px = config.get_int("track.depth_odometry_block_px", o.depth_odometry_block_px, 1, 64);
-  o.depth_odometry_information_scale = config.get_double("track.depth_odometry_information_scale",
-                                                         o.depth_odometry_information_scale, 1e-9, 1e6);
+  o.depth_odometry_information_scale =
+      config.get_double("track.depth_odometry_information_scale", o.depth_odometry_information_scale, 1e-9, 1e6);
   o.depth_odometry_max_distance_m =
       config.get_double("track.depth_odometry_max_distance_m", o.depth_odometry_max_distance_m, 1e-4, 10.0);
   o.depth_odometry_min_overlap =
@@ -136,9 +138,8 @@ TrackingOptions tracking_options_from_config(Config& config) {
   o.initial_trust_region_radius =
       config.get_double("track.initial_trust_region_radius", o.initial_trust_region_radius, 0.0, 1e16);
   o.log_iterations = config.get_bool("track.log_iterations", o.log_iterations);
-  o.linear_solver =
-      config.get_string("track.linear_solver", o.linear_solver,
-                        {"sparse_schur", "dense_schur", "iterative_schur", "sparse_normal_cholesky"});
+  o.linear_solver = config.get_string("track.linear_solver", o.linear_solver,
+                                      {"sparse_schur", "dense_schur", "iterative_schur", "sparse_normal_cholesky"});
   o.schur_ordering = config.get_string("track.schur_ordering", o.schur_ordering, {"landmarks", "automatic"});
   o.threads = config.get_int("threads", 0, 0, 1024);
   o.solver_threads = config.get_int("track.solver_threads", o.solver_threads, 0, 1024);
@@ -155,8 +156,7 @@ TrackingOptions tracking_options_from_config(Config& config) {
   f.loop_closure = config.get_bool("frontend.loop_closure", f.loop_closure);
   f.loop_frames = config.get_int("frontend.loop_frames", f.loop_frames, 0, 100);
   f.orb_border_px = config.get_int("frontend.orb_border_px", f.orb_border_px, 0, 100);
-  f.loop_max_deviation_deg =
-      config.get_double("frontend.loop_max_deviation_deg", f.loop_max_deviation_deg, 0.0, 180.0);
+  f.loop_max_deviation_deg = config.get_double("frontend.loop_max_deviation_deg", f.loop_max_deviation_deg, 0.0, 180.0);
   f.loop_max_deviation_m = config.get_double("frontend.loop_max_deviation_m", f.loop_max_deviation_m, 0.0, 100.0);
   f.max_pair_translation_m =
       config.get_double("frontend.max_pair_translation_m", f.max_pair_translation_m, 1e-3, 100.0);
@@ -258,6 +258,7 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   stats.depth_icp_iterations = graph.depth_icp_iterations;
   stats.depth_odometry_seconds = depth_seconds;
   stats.extrinsics_observed = state.extrinsics_observed;
+  stats.extrinsics_slide_held = options.hold_extrinsics_slide;
   stats.landmarks = int(state.tracks.size());
   stats.residual_blocks = graph.problem->NumResidualBlocks();
   stats.parameters = graph.problem->NumParameters();
@@ -298,6 +299,24 @@ TrackingResult track_with_frontend(const ScanIndex& scan, const FrontendResult& 
   if (options.verify.enabled) {
     result.verdict =
         verify_tracking(result, scan, frontend, observations, tg::observation_residual_norms(graph), options);
+    // A released camera that moved too far from its calibration: solve again with its slide along
+    // the axis held (TrackingOptions::hold_extrinsics_slide), and keep that solve, reliable or not.
+    bool extrinsics_failed = false;
+    for (const TrackingCheck& check : result.verdict.checks)
+      extrinsics_failed |= check.name == "extrinsics" && !check.passed;
+    bool released = false;
+    for (int s = 0; s < state.sensor_count; ++s)
+      released |= s != state.ref && state.active[s] && state.extrinsics_observed[s];
+    if (extrinsics_failed && released && options.extrinsics_null_prior && !options.hold_extrinsics_slide) {
+      const std::string failure = result.verdict.first_failure();
+      log_warn(state.origin + ": " + failure + "; solving again with the slide along the axis held at the calibration");
+      TrackingOptions held = options;
+      held.hold_extrinsics_slide = true;
+      TrackingResult again = track_with_frontend(scan, frontend, held, initial_guess);
+      again.stats.first_solve_failure = failure;
+      again.stats.solve_seconds += result.stats.solve_seconds;
+      return again;
+    }
     if (!result.verdict.reliable)
       log_warn(state.origin + ": tracking is not trustworthy: " + result.verdict.first_failure());
   }
@@ -330,10 +349,11 @@ TrackingResult track_scan(const ScanIndex& scan, const TrackingOptions& options)
     for (const auto& r : funnel.band_relations)
       corrections += fmt::format("{}cam{}-cam{} {:.2f} deg ({} votes)", corrections.empty() ? "" : ", ", r.sensor_a,
                                  r.sensor_b, r.correction_deg, r.votes);
-    log_info(fmt::format("band alignment across cameras: {} frame pairs, {} with corners predicted in the other view, "
-                         "{} accepted ({} corners, {} aligned, {} matches); calibration correction {}",
-                         funnel.band_candidates, funnel.band_with_anchors, funnel.band_accepted, funnel.band_anchors,
-                         funnel.band_aligned, funnel.band_matches, corrections));
+    log_info(
+        fmt::format("band alignment across cameras: {} frame pairs, {} with corners predicted in the other view, "
+                    "{} accepted ({} corners, {} aligned, {} matches); calibration correction {}",
+                    funnel.band_candidates, funnel.band_with_anchors, funnel.band_accepted, funnel.band_anchors,
+                    funnel.band_aligned, funnel.band_matches, corrections));
   }
   if (funnel.candidates > 0)
     log_info("cross-camera pairs: " + std::to_string(funnel.candidates) + " candidates, " +
@@ -350,9 +370,8 @@ namespace {
 nlohmann::json stats_to_json(const TrackingStats& s) {
   nlohmann::json band_relations = nlohmann::json::array();
   for (const auto& r : s.cross_camera.band_relations)
-    band_relations.push_back({{"sensors", {r.sensor_a, r.sensor_b}},
-                              {"votes", r.votes},
-                              {"calibration_correction_deg", r.correction_deg}});
+    band_relations.push_back(
+        {{"sensors", {r.sensor_a, r.sensor_b}}, {"votes", r.votes}, {"calibration_correction_deg", r.correction_deg}});
   std::vector<bool> extrinsics_observed(s.extrinsics_observed.begin(), s.extrinsics_observed.end());
   nlohmann::json j = {
       {"format", "panoscan-tracking-stats"},
@@ -393,7 +412,9 @@ nlohmann::json stats_to_json(const TrackingStats& s) {
       {"cross_camera_per_sensor",
        {{"landmarks", s.cross_landmarks},
         {"observations", s.cross_observations},
-        {"extrinsics_observed", extrinsics_observed}}},
+        {"extrinsics_observed", extrinsics_observed},
+        {"extrinsics_slide_held", s.extrinsics_slide_held},
+        {"first_solve_failure", s.first_solve_failure}}},
       {"residual_blocks", s.residual_blocks},
       {"parameters", s.parameters},
       {"iterations", s.iterations},

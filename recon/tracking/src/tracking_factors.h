@@ -64,8 +64,8 @@ struct ObservationCost {
   static ceres::CostFunction* create(double u, double v, double d, double fx, double fy, double cx, double cy,
                                      double sigma_px, double sigma_d);
   // This functor auto-differentiated: the reference the closed form is tested against.
-  static ceres::CostFunction* create_autodiff(double u, double v, double d, double fx, double fy, double cx,
-                                              double cy, double sigma_px, double sigma_d) {
+  static ceres::CostFunction* create_autodiff(double u, double v, double d, double fx, double fy, double cx, double cy,
+                                              double sigma_px, double sigma_d) {
     return new ceres::AutoDiffCostFunction<ObservationCost, 3, 4, 3, 3>(
         new ObservationCost(u, v, d, fx, fy, cx, cy, sigma_px, sigma_d));
   }
@@ -137,8 +137,7 @@ class ObservationJacobian final : public ceres::SizedCostFunction<3, 4, 3, 3> {
       }
       // P^T (3x4) of QuaternionManifold::PlusJacobian at q = (w, x, y, z):
       //   P = [[-x, -y, -z], [w, z, -y], [-z, w, x], [y, -x, w]].
-      const double P[4][3] = {
-          {-q[1], -q[2], -q[3]}, {q[0], q[3], -q[2]}, {-q[3], q[0], q[1]}, {q[2], -q[1], q[0]}};
+      const double P[4][3] = {{-q[1], -q[2], -q[3]}, {q[0], q[3], -q[2]}, {-q[3], q[0], q[1]}, {q[2], -q[1], q[0]}};
       for (int r = 0; r < 3; ++r)
         for (int a = 0; a < 4; ++a) jacobians[0][4 * r + a] = M[r][0] * P[a][0] + M[r][1] * P[a][1] + M[r][2] * P[a][2];
     }
@@ -254,7 +253,8 @@ struct SharedWobbleCost {
 // The calibration along the two directions of T_c that no factor observes without cross-camera
 // landmarks (rotation about and sliding along the axis, expressed in the rig frame): residual =
 // (axis . translation(prior^-1 T_c) / sigma_t, axis . rotation_vector(prior^-1 T_c) / sigma_r),
-// axis = R_r^T R_u e_z (the rotation axis in the reference camera's frame).
+// axis = R_r^T R_u e_z (the rotation axis in the reference camera's frame). sigma_r = 0 leaves the
+// rotation free (its residual 0): the slide alone held (TrackingOptions::hold_extrinsics_slide).
 struct ExtrinsicsNullPriorCost {
   ExtrinsicsNullPriorCost(const double* q_prior, const double* t_prior, double sigma_t, double sigma_r)
       : sigma_t_(sigma_t), sigma_r_(sigma_r) {
@@ -278,7 +278,7 @@ struct ExtrinsicsNullPriorCost {
       along_r += axis_rig[k] * rotation_vector[k];
     }
     residual[0] = along_t / sigma_t_;
-    residual[1] = along_r / sigma_r_;
+    residual[1] = sigma_r_ > 0.0 ? along_r / sigma_r_ : T(0);
     return true;
   }
   static ceres::CostFunction* create(const double* q_prior, const double* t_prior, double sigma_t, double sigma_r) {

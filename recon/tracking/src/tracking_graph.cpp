@@ -173,8 +173,9 @@ TrackingState initialise_tracking_state(const ScanIndex& scan, const FrontendRes
       const double t = scan.frames[s][f].timestamp;
       const double a = interpolate(st.ref_times, ref_alpha0, t);
       const Rigid3d model =
-          st.handheld ? reference_pose_at(st.ref_times, odometry, t) * scan.rig.sensors[s].ref_from_cam
-                      : world_from_axis0 * axis_rotation(a) * world_from_axis0.inverse() * scan.rig.sensors[s].ref_from_cam;
+          st.handheld
+              ? reference_pose_at(st.ref_times, odometry, t) * scan.rig.sensors[s].ref_from_cam
+              : world_from_axis0 * axis_rotation(a) * world_from_axis0.inverse() * scan.rig.sensors[s].ref_from_cam;
       st.poses[s].push_back(PoseBlock::from(s == ref ? odometry[f] : model));
       st.alpha[s].push_back(s == ref ? ref_alpha0[f] : a);
     }
@@ -284,13 +285,16 @@ void add_regularisation_factors(FactorGraph& graph, TrackingState& st, const Tra
                                     deg2rad(options.extrinsics_prior_rotation_std_deg)),
           nullptr, st.extrinsics[s].q, st.extrinsics[s].t));
   // ... and, held firmly, along the two directions nothing else observes (tracking.h), unless the
-  // cross-camera landmarks observe them.
+  // cross-camera landmarks observe them; with hold_extrinsics_slide they release the rotation only.
   if (options.extrinsics_null_prior)
-    for (int s = 0; s < st.sensor_count; ++s)
-      if (s != st.ref && st.active[s] && refine_extrinsics && !st.extrinsics_observed[s])
-        graph.blocks[kPriors].push_back(problem.AddResidualBlock(
-            tf::ExtrinsicsNullPriorCost::create(st.extrinsics[s].q, st.extrinsics[s].t, 1e-4, deg2rad(0.01)), nullptr,
-            st.extrinsics[s].q, st.extrinsics[s].t, st.axis.q, st.rig.q));
+    for (int s = 0; s < st.sensor_count; ++s) {
+      if (s == st.ref || !st.active[s] || !refine_extrinsics) continue;
+      if (st.extrinsics_observed[s] && !options.hold_extrinsics_slide) continue;
+      const double sigma_r = st.extrinsics_observed[s] ? 0.0 : deg2rad(0.01);
+      graph.blocks[kPriors].push_back(problem.AddResidualBlock(
+          tf::ExtrinsicsNullPriorCost::create(st.extrinsics[s].q, st.extrinsics[s].t, 1e-4, sigma_r), nullptr,
+          st.extrinsics[s].q, st.extrinsics[s].t, st.axis.q, st.rig.q));
+    }
 }
 
 void add_shared_wobble_factors(FactorGraph& graph, TrackingState& st, const TrackingOptions& options) {
@@ -426,8 +430,8 @@ void add_depth_odometry_factors(FactorGraph& graph, TrackingState& st, const Sca
     const PoseBlock measured = PoseBlock::from(aligned[k].a_from_b);
     const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> root = depth_odometry::information_sqrt(aligned[k].information);
     graph.blocks[kDepthOdometry].push_back(graph.problem->AddResidualBlock(
-        tf::RelativePoseCost::create(measured.q, measured.t, root.data()), graph.depth_huber.get(),
-        st.poses[s][f].q, st.poses[s][f].t, st.poses[s][f + 1].q, st.poses[s][f + 1].t));
+        tf::RelativePoseCost::create(measured.q, measured.t, root.data()), graph.depth_huber.get(), st.poses[s][f].q,
+        st.poses[s][f].t, st.poses[s][f + 1].q, st.poses[s][f + 1].t));
     graph.depth_pair_frames.push_back({s, f});
     ++graph.depth_pairs;
   }
@@ -617,9 +621,10 @@ ceres::Solver::Summary solve_tracking_graph(FactorGraph& graph, const TrackingOp
   // track.initial_trust_region_radius (tracking.h): automatic = nearly Gauss-Newton from the start when
   // Eq. 2 ties the frames to the rotation model, Ceres' default for bundle adjustment alone.
   const bool regularised = !graph.blocks[kRegularisation].empty();
-  solver_options.initial_trust_region_radius = options.initial_trust_region_radius > 0 ? options.initial_trust_region_radius
-                                               : regularised                          ? 1e8
-                                                                                      : 1e4;
+  solver_options.initial_trust_region_radius = options.initial_trust_region_radius > 0
+                                                   ? options.initial_trust_region_radius
+                                               : regularised ? 1e8
+                                                             : 1e4;
   solver_options.logging_type = ceres::SILENT;
   const bool schur = solver_options.linear_solver_type != ceres::SPARSE_NORMAL_CHOLESKY;
   if (schur && graph.schur_ordering) solver_options.linear_solver_ordering = graph.schur_ordering;

@@ -69,7 +69,7 @@ struct TrackingVerifyOptions {
       45;                     // track.verify.max_unsupported_turn_deg: longest turn no camera supports (1/8 rev.)
   double min_turn_deg = 340;  // track.verify.min_turn_deg: the scan must cover one revolution ...
   double max_turn_deg = 380;  // track.verify.max_turn_deg: ... and not much more
-  double max_backward_step_deg = 2.0;        // track.verify.max_backward_step_deg: azimuth steps against the turn
+  double max_backward_step_deg = 2.0;  // track.verify.max_backward_step_deg: azimuth steps against the turn
   // track.verify.min_pair_inlier_share: a verified frame pair agrees with the trajectory when the
   // tracked relative pose keeps at least this share of the pair's RANSAC inliers within their
   // thresholds (a majority: over 49 right trajectories 12 of 12574 pairs, false matches, kept fewer;
@@ -127,15 +127,20 @@ struct TrackingOptions {
   // ... released for a camera whose T_c the data observe: it shares at least this many landmarks
   // with the reference camera, or with a camera that does (cross-camera band matches, frontend.h).
   int extrinsics_release_min_landmarks = 20;  // track.extrinsics_release_min_landmarks
+  // Where released, the slide along the axis stays held anyway (only the rotation about the axis is
+  // released). track_with_frontend sets it for a second solve when the first moved the extrinsics
+  // further from the calibration than the self-check allows: a narrow band's landmarks lie at
+  // similar depths, so a slide can trade against a tilt (recon/tracking/README.md).
+  bool hold_extrinsics_slide = false;  // track.hold_extrinsics_slide
   // Shared wobble (beyond the paper; SharedWobbleCost in tracking_factors.h): consecutive frames of
   // different cameras dt apart share the rig's wobble up to its change over dt, std = rate * dt (+ a
   // floor for timestamp jitter); linked only while rate * dt is below Eq. 2's std (beyond that the
   // two deviations are as good as independent). The rates are the std of the wobble's rate of
   // change (how the defaults follow from the paper's wobble: recon/tracking/README.md).
-  bool shared_wobble = true;                 // track.shared_wobble
-  double wobble_rate_std_deg_s = 8.0;        // track.wobble_rate_std_deg_s
-  double wobble_rate_std_m_s = 0.08;         // track.wobble_rate_std_m_s
-  double same_time_s = 1e-3;                 // track.same_time_s: frames closer in time share one azimuth
+  bool shared_wobble = true;           // track.shared_wobble
+  double wobble_rate_std_deg_s = 8.0;  // track.wobble_rate_std_deg_s
+  double wobble_rate_std_m_s = 0.08;   // track.wobble_rate_std_m_s
+  double same_time_s = 1e-3;           // track.same_time_s: frames closer in time share one azimuth
   // Depth odometry (beyond the paper; recon/tracking/src/depth_odometry.h): point-to-plane ICP between
   // consecutive frames of each camera as a relative-pose factor weighted by the ICP's information,
   // so that frames that see only a plain wall or ceiling are held by their depth as well as by
@@ -147,7 +152,7 @@ struct TrackingOptions {
   double depth_odometry_information_scale = 1.0;  // track.depth_odometry_information_scale
   double depth_odometry_max_distance_m = 0.10;    // track.depth_odometry_max_distance_m: first pairing gate
   double depth_odometry_min_overlap = 0.25;       // track.depth_odometry_min_overlap: inliers / samples
-  double huber_delta = 2.796;                // track.huber_delta: on the whitened residual (sqrt of chi2(3) 95%)
+  double huber_delta = 2.796;                     // track.huber_delta: on the whitened residual (sqrt of chi2(3) 95%)
   double depth_noise_coefficient = 9.49e-4;  // track.depth_noise_coefficient: sigma_d = c d^2, ARCHITECTURE.md §4.1
   int max_iterations = 100;                  // track.max_iterations
   // track.function_tolerance: stop when an iteration lowers the cost by less than this fraction
@@ -162,21 +167,21 @@ struct TrackingOptions {
   // where strong first damping keeps it near the chains, so it keeps 1e4 (recon/tracking/README.md,
   // "Solver speed").
   double initial_trust_region_radius = 0.0;
-  bool log_iterations = false;                 // track.log_iterations: one log line per LM iteration (cost, times)
+  bool log_iterations = false;  // track.log_iterations: one log line per LM iteration (cost, times)
   // track.linear_solver: sparse_schur | dense_schur | iterative_schur | sparse_normal_cholesky
   std::string linear_solver = "sparse_schur";
   // track.schur_ordering: which blocks the Schur solvers eliminate. "landmarks": exactly the
   // landmarks, the other blocks in the graph's order (frames in time order, then T_c, T_u, T_r);
   // "automatic": Ceres' own independent set (recon/tracking/README.md, "Solver speed").
   std::string schur_ordering = "landmarks";
-  int threads = 0;                             // threads (0 = all cores)
+  int threads = 0;  // threads (0 = all cores)
   // track.solver_threads: Ceres' threads for the solve (0 = `threads`). One by default: Ceres'
   // multi-threaded reductions reorder floating-point sums, so runs with the same thread count
   // differed in the last bits; with one the trajectory is bit for bit the same for any `threads`,
   // and on 2 cores the solve was faster too (recon/tracking/README.md, "Solver speed").
   int solver_threads = 1;
-  FrontendOptions frontend;                    // frontend.* keys
-  TrackingVerifyOptions verify;                // track.verify.* keys
+  FrontendOptions frontend;      // frontend.* keys
+  TrackingVerifyOptions verify;  // track.verify.* keys
   // track.allow_unreliable: require_reliable_tracking warns instead of refusing (for inspection).
   bool allow_unreliable = false;
 
@@ -207,11 +212,15 @@ struct TrackingStats {
   double init_seconds = 0, solve_seconds = 0;
   double linear_solver_seconds = 0, jacobian_seconds = 0;  // parts of solve_seconds (Ceres' summary)
   int same_camera_pairs = 0, cross_camera_pairs = 0, loop_pairs = 0, frames_without_features = 0;
-  int guided_pairs = 0, guided_fallbacks = 0;  // pairs matched by projection / brute force (frontend.h)
-  int rejected_loop_pairs = 0, rejected_far_pairs = 0;  // FrontendResult's, for tracking_stats.json
-  CrossCameraFunnel cross_camera;                       // FrontendResult's: where cross-camera pairs are lost
+  int guided_pairs = 0, guided_fallbacks = 0;            // pairs matched by projection / brute force (frontend.h)
+  int rejected_loop_pairs = 0, rejected_far_pairs = 0;   // FrontendResult's, for tracking_stats.json
+  CrossCameraFunnel cross_camera;                        // FrontendResult's: where cross-camera pairs are lost
   std::vector<int> cross_landmarks, cross_observations;  // per sensor (FrontendResult's)
   std::vector<char> extrinsics_observed;  // per sensor: null-space prior released (extrinsics_release_min_landmarks)
+  // The kept solve held the slide along the axis (hold_extrinsics_slide), set or as the retry after
+  // a released solve failed the self-check's extrinsics test (that failure: first_solve_failure).
+  bool extrinsics_slide_held = false;
+  std::string first_solve_failure;
 };
 
 // One check of verify_tracking: its figure against its limit.
@@ -226,7 +235,7 @@ struct TrackingCheck {
 
 // Per frame of each camera: its support by the data.
 struct FrameSupport {
-  int observations = 0;     // Eq. 1 observations (0 for cameras not in the graph)
+  int observations = 0;  // Eq. 1 observations (0 for cameras not in the graph)
   // The best (smallest) turn std of the depth-odometry pairs the frame is in (deg; +inf: none).
   double depth_yaw_std_deg = std::numeric_limits<double>::infinity();
   bool depth_supported = false;  // depth_yaw_std_deg <= max_depth_yaw_std_deg (rotator)
@@ -234,8 +243,8 @@ struct FrameSupport {
   double depth_residual = std::numeric_limits<double>::infinity();
   // Its departure from the rotator model (Eq. 2's error transform; 0 without Eq. 2).
   double model_departure_mm = 0.0, model_departure_deg = 0.0;
-  double gap_deg = 0.0;     // turn from this frame to the nearest instant some camera supports (rotator; else 0)
-  double gap_s = 0.0;       // the same in seconds
+  double gap_deg = 0.0;  // turn from this frame to the nearest instant some camera supports (rotator; else 0)
+  double gap_s = 0.0;    // the same in seconds
   // max(min(1, observations / min_frame_observations), 1 if depth_supported) * max(0, 1 - gap / max
   // gap), the gap in degrees (rotator: max_unsupported_turn_deg) or seconds (handheld: max_unsupported_s)
   double confidence = 0.0;
