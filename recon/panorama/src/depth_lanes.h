@@ -43,7 +43,9 @@ inline void tsa_lanes(V dp, const Vec3<V>& rp, V dl, const Vec3<V>& rl, V du, co
   const Vec3<V> c = cross(a, b);
   const V norm2 = dot(c, c);
   const V s = sqrt_lanes(norm2 + eps * eps);
-  const Vec3<V> g{c.x / s, c.y / s, c.z / s};
+  // One division, six products: the divider bounds this loop (session 53; six divisions before).
+  const V inverse = 1.0 / s;
+  const Vec3<V> g{c.x * inverse, c.y * inverse, c.z * inverse};
   const Vec3<V> grad_a = cross(b, g), grad_b = cross(g, a);
   out[0] = s - eps;
   out[1] = sqrt_lanes(norm2);
@@ -51,9 +53,9 @@ inline void tsa_lanes(V dp, const Vec3<V>& rp, V dl, const Vec3<V>& rl, V du, co
   out[3] = -dot(grad_a, rl);
   out[4] = -dot(grad_b, ru);
   const Vec3<V> k0 = cross(rp, Vec3<V>{b.x - a.x, b.y - a.y, b.z - a.z}), k1 = cross(rl, b), k2 = cross(ru, a);
-  out[5] = dot(k0, k0) / s;
-  out[6] = dot(k1, k1) / s;
-  out[7] = dot(k2, k2) / s;
+  out[5] = dot(k0, k0) * inverse;
+  out[6] = dot(k1, k1) * inverse;
+  out[7] = dot(k2, k2) * inverse;
 }
 
 }  // namespace lanes

@@ -22,7 +22,8 @@ void data_term_quad_avx(const double depth[4], const float* const begin[4], cons
     if (count[j] > longest) longest = count[j];
   }
   const double eps2 = eps * eps;
-  const __m256d eps_v = _mm256_set1_pd(eps), eps2_v = _mm256_set1_pd(eps2), sign = _mm256_set1_pd(-0.0);
+  const __m256d eps_v = _mm256_set1_pd(eps), eps2_v = _mm256_set1_pd(eps2), sign = _mm256_set1_pd(-0.0),
+                one = _mm256_set1_pd(1.0);
   const __m256d depth_v = _mm256_loadu_pd(depth);
   __m256d smoothed = _mm256_setzero_pd(), exact = _mm256_setzero_pd(), gradient = _mm256_setzero_pd(),
           curvature = _mm256_setzero_pd();
@@ -38,9 +39,10 @@ void data_term_quad_avx(const double depth[4], const float* const begin[4], cons
     const __m256d s = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(r, r), eps2_v));
     smoothed = _mm256_add_pd(smoothed, _mm256_and_pd(mask, _mm256_sub_pd(s, eps_v)));
     exact = _mm256_add_pd(exact, _mm256_and_pd(mask, _mm256_andnot_pd(sign, r)));  // |r|
-    gradient = _mm256_add_pd(gradient, _mm256_and_pd(mask, _mm256_div_pd(r, s)));
-    curvature =
-        _mm256_add_pd(curvature, _mm256_and_pd(mask, _mm256_div_pd(eps2_v, _mm256_mul_pd(_mm256_mul_pd(s, s), s))));
+    const __m256d inverse = _mm256_div_pd(one, s);
+    gradient = _mm256_add_pd(gradient, _mm256_and_pd(mask, _mm256_mul_pd(r, inverse)));
+    curvature = _mm256_add_pd(
+        curvature, _mm256_and_pd(mask, _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(eps2_v, inverse), inverse), inverse)));
   }
   _mm256_storeu_pd(sums[0], smoothed);
   _mm256_storeu_pd(sums[1], exact);
